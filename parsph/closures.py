@@ -1,0 +1,27 @@
+"""Constitutive closures of the solid phase (PHYSICS.md, after Eq. (5)).
+
+- elastic modulus G(theta) = 10^(a theta + b) Pa (Jayaswal 1991), with
+  grad p_s = G(theta) grad theta;
+- solids viscosity mu_s = k theta.
+
+In the pair loop G is needed at the pair-mean theta; it factorises exactly:
+G((theta_i + theta_j)/2) = 10^b * 10^(a theta_i / 2) * 10^(a theta_j / 2),
+so each particle carries ``half_modulus = 10^(a theta / 2)`` and the loop
+multiplies.
+"""
+import numpy as np
+
+
+def modulus(theta, a=8.76, b=-1.183):
+    """G(theta) [Pa]."""
+    return 10.0 ** (a * np.asarray(theta) + b) if np.ndim(theta) else 10.0 ** (a * theta + b)
+
+
+def half_modulus(theta, a):
+    """10^(a theta / 2): the per-particle factor of G at the pair mean."""
+    return 10.0 ** (0.5 * a * theta)
+
+
+def viscosity(theta, k):
+    """mu_s = k theta [Pa s]."""
+    return k * theta

@@ -1,0 +1,342 @@
+"""Run files: TOML, every key validated, derived quantities computed once.
+
+A run file has the sections below; ``parsph run --set section.key=value``
+overrides any key. Every problem raises :class:`ConfigError` naming the key.
+The full key list with units is in README.md ("Run-file keys").
+"""
+from dataclasses import dataclass, field
+import math
+import tomllib
+
+from .kernels import KERNEL_NAMES, get_kernel
+from . import closures
+
+REQUIRED = object()
+
+
+class ConfigError(Exception):
+    """A bad run file: ``key`` names the offending key."""
+
+    def __init__(self, key, reason):
+        super().__init__(f"{key}: {reason}")
+        self.key = key
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class Key:
+    kind: str  # "float", "int", "str", "bool", "floatlist", "float_or_auto"
+    default: object = REQUIRED
+    positive: bool = False
+    nonnegative: bool = False
+    choices: tuple = ()
+    lo: float = None  # inclusive lower bound
+    hi: float = None  # exclusive upper bound
+    doc: str = ""
+
+
+SCHEMA = {
+    "scene": {
+        "name": Key("str", "couette", choices=("couette",), doc="scene to run"),
+        "dim": Key("int", 2, choices=(2,), doc="spatial dimension"),
+    },
+    "domain": {
+        "L": Key("float", REQUIRED, positive=True, doc="plate distance [m]"),
+        "Ly": Key("float", None, positive=True, doc="periodic streamwise length [m] (default L)"),
+    },
+    "material": {
+        "rho_s": Key("float", REQUIRED, positive=True, doc="solid material density [kg/m^3]"),
+        "theta0": Key("float", REQUIRED, positive=True, hi=1.0, doc="initial volume fraction"),
+        "k": Key("float", REQUIRED, nonnegative=True, doc="viscosity coefficient, mu_s = k theta [Pa s]"),
+        "G_a": Key("float", 8.76, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "G_b": Key("float", -1.183, doc="G = 10^(G_a theta + G_b) [Pa]"),
+    },
+    "walls": {
+        "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
+        "layers": Key("int", 0, nonnegative=True, doc="wall particle layers (0: the fewest covering 2h)"),
+        "beta_max": Key("float", 1.5, lo=1.0, doc="cap of the ghost velocity factor (Morris 1997)"),
+    },
+    "numerics": {
+        "Nx": Key("int", REQUIRED, lo=2, doc="particles across the channel"),
+        "h": Key("float", None, positive=True, doc="smoothing length [m] (or give h_over_dx)"),
+        "h_over_dx": Key("float", None, positive=True, doc="smoothing length in units of dx"),
+        "kernel": Key("str", "cubic_spline", choices=KERNEL_NAMES, doc="smoothing kernel"),
+        "dt": Key("float_or_auto", REQUIRED, doc="time step [s] or \"auto\""),
+        "dt_safety": Key("float", 1.0, positive=True, hi=1.0 + 1e-12,
+                         doc="factor on the stability limits for dt = \"auto\""),
+        "allow_unstable_dt": Key("bool", False, doc="run a dt above the stability limit (warns)"),
+        "integrator": Key("str", "paper", choices=("paper",), doc="time integrator"),
+    },
+    "body_force": {
+        "g": Key("floatlist", None, doc="body force per unit mass [m/s^2], one entry per dimension"),
+    },
+    "output": {
+        "t_end": Key("float", REQUIRED, positive=True, doc="end time [s]"),
+        "times": Key("floatlist", (), doc="times of profile and snapshot output [s]"),
+        "snapshots": Key("bool", True, doc="write particle snapshots at the output times"),
+        "progress_interval": Key("float", 5.0, nonnegative=True, doc="seconds between progress lines (0: none)"),
+        "check_every": Key("int", 50, lo=1, doc="steps between run-time checks (NaN, walls)"),
+    },
+}
+
+
+def _typed(key, spec, value):
+    """Check one value against its spec and return it converted."""
+    k = spec.kind
+    if k == "float_or_auto":
+        if value == "auto":
+            return value
+        k = "float"
+    if k == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(key, f"expected a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ConfigError(key, f"must be finite, got {value!r}")
+    elif k == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(key, f"expected an integer, got {value!r}")
+    elif k == "str":
+        if not isinstance(value, str):
+            raise ConfigError(key, f"expected a string, got {value!r}")
+    elif k == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(key, f"expected true or false, got {value!r}")
+    elif k == "floatlist":
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(key, f"expected a list of numbers, got {value!r}")
+        out = []
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ConfigError(key, f"expected a list of finite numbers, got {value!r}")
+            out.append(float(v))
+        return tuple(out)
+    if spec.choices and value not in spec.choices:
+        raise ConfigError(key, f"must be one of {', '.join(map(str, spec.choices))}, got {value!r}")
+    if spec.positive and not value > 0:
+        raise ConfigError(key, f"must be positive, got {value!r}")
+    if spec.nonnegative and not value >= 0:
+        raise ConfigError(key, f"must not be negative, got {value!r}")
+    if spec.lo is not None and not value >= spec.lo:
+        raise ConfigError(key, f"must be at least {spec.lo:g}, got {value!r}")
+    if spec.hi is not None and not value < spec.hi:
+        raise ConfigError(key, f"must be below {spec.hi:g}, got {value!r}")
+    return value
+
+
+def parse_value(text):
+    """A --set value: TOML syntax (numbers, true/false, lists, quoted strings) or a bare string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def apply_overrides(raw, overrides):
+    """Apply ``section.key=value`` strings to a raw run-file dict (in place)."""
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(item, "an override must look like section.key=value")
+        name, text = item.split("=", 1)
+        parts = name.strip().split(".")
+        if len(parts) != 2 or not all(parts):
+            raise ConfigError(name, "an override key must look like section.key")
+        section, key = parts
+        if not isinstance(raw.get(section, {}), dict):
+            raise ConfigError(section, "expected a table")
+        raw.setdefault(section, {})[key] = parse_value(text.strip())
+    return raw
+
+
+def validate(raw):
+    """Return {section: {key: value}} with defaults filled in, or raise ConfigError."""
+    if not isinstance(raw, dict):
+        raise ConfigError("<file>", "not a TOML table")
+    out = {}
+    for section in raw:
+        if section not in SCHEMA:
+            raise ConfigError(section, f"unknown section (known: {', '.join(SCHEMA)})")
+        if not isinstance(raw[section], dict):
+            raise ConfigError(section, "expected a table [" + section + "]")
+    for section, keys in SCHEMA.items():
+        given = raw.get(section, {})
+        for key in given:
+            if key not in keys:
+                raise ConfigError(f"{section}.{key}", f"unknown key (known in [{section}]: {', '.join(keys)})")
+        out[section] = {}
+        for key, spec in keys.items():
+            name = f"{section}.{key}"
+            if key in given:
+                out[section][key] = _typed(name, spec, given[key])
+            elif spec.default is REQUIRED:
+                raise ConfigError(name, "missing (required)")
+            else:
+                out[section][key] = spec.default
+    return out
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """A validated run with every derived quantity (SI units)."""
+    values: dict
+    text: str  # the run file as given, overrides applied (TOML)
+    dim: int
+    L: float
+    Ly: float
+    Nx: int
+    Ny: int
+    dx: float
+    dy: float
+    h: float
+    layers: int
+    mass: float
+    rho_s: float
+    theta0: float
+    k: float
+    G_a: float
+    G_b: float
+    V_w: float
+    beta_max: float
+    kernel: str
+    dt: float
+    dt_auto: bool
+    t_end: float
+    nsteps: int
+    output_times: tuple
+    output_steps: tuple
+    g: tuple
+    limits: dict = field(default_factory=dict)
+
+    @property
+    def nu(self):
+        """Kinematic viscosity k theta0 / rho_s (Eq. (5) in a uniform state)."""
+        return self.k * self.theta0 / self.rho_s
+
+    @property
+    def reynolds(self):
+        return abs(self.V_w) * self.L / self.nu if self.nu > 0 else math.inf
+
+    def get(self, dotted):
+        section, key = dotted.split(".")
+        return self.values[section][key]
+
+
+def dt_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0):
+    """Stability limits of PHYSICS.md: CFL, viscous and force [s] (inf where absent)."""
+    c = math.sqrt(closures.modulus(theta, G_a, G_b) / rho_s)
+    nu = k * theta / rho_s
+    return {
+        "cfl": 0.25 * h / (c + vmax) if c + vmax > 0 else math.inf,
+        "viscous": 0.125 * h * h / nu if nu > 0 else math.inf,
+        "force": 0.25 * math.sqrt(h / amax) if amax > 0 else math.inf,
+    }
+
+
+def build(raw, text):
+    """Validate a raw run-file dict and derive the run's quantities."""
+    v = validate(raw)
+    dom, mat, walls, num, out = v["domain"], v["material"], v["walls"], v["numerics"], v["output"]
+    dim = v["scene"]["dim"]
+    L = dom["L"]
+    Ly = dom["Ly"] if dom["Ly"] is not None else L
+    Nx = num["Nx"]
+    dx = L / Nx
+    if (num["h"] is None) == (num["h_over_dx"] is None):
+        raise ConfigError("numerics.h", "give exactly one of numerics.h and numerics.h_over_dx")
+    h = num["h"] if num["h"] is not None else num["h_over_dx"] * dx
+    Ny = max(1, round(Ly / dx))
+    dy = Ly / Ny
+    kern = get_kernel(num["kernel"], dim)
+    support = kern.support * h
+    need_layers = math.ceil(support / dx - 1e-9)
+    layers = walls["layers"] or need_layers
+    if layers * dx < support * (1 - 1e-9):
+        raise ConfigError("walls.layers", f"{layers} layers of dx = {dx:g} m do not cover the kernel "
+                          f"support {support:g} m; need at least {need_layers}")
+    if Ly < support:
+        raise ConfigError("domain.Ly", f"{Ly:g} m is shorter than the kernel support 2h = {support:g} m")
+    g = v["body_force"]["g"]
+    if g is None:
+        g = (0.0,) * dim
+    if len(g) != dim:
+        raise ConfigError("body_force.g", f"needs {dim} components, got {len(g)}")
+    theta0 = mat["theta0"]
+    limits = dt_limits(h, theta0, mat["rho_s"], mat["k"], mat["G_a"], mat["G_b"],
+                       abs(walls["V_w"]), math.sqrt(sum(x * x for x in g)))
+    dt_max = min(limits.values())
+    if num["dt"] == "auto":
+        dt, auto = num["dt_safety"] * dt_max, True
+    else:
+        dt, auto = num["dt"], False
+        if not dt > 0:
+            raise ConfigError("numerics.dt", f"must be positive or \"auto\", got {dt!r}")
+        if dt > dt_max and not num["allow_unstable_dt"]:
+            which = min(limits, key=limits.get)
+            raise ConfigError("numerics.dt", f"{dt:g} s is above the stability limit {dt_max:.3g} s "
+                              f"({which}); lower it, use \"auto\", or set numerics.allow_unstable_dt = true")
+    t_end = out["t_end"]
+    nsteps = max(1, round(t_end / dt))
+    times = tuple(sorted(set(out["times"])))
+    for t in times:
+        if not 0 <= t <= t_end * (1 + 1e-12):
+            raise ConfigError("output.times", f"{t:g} s lies outside [0, t_end = {t_end:g} s]")
+    steps = tuple(round(t / dt) for t in times)
+    return RunConfig(
+        values=v, text=text, dim=dim, L=L, Ly=Ly, Nx=Nx, Ny=Ny, dx=dx, dy=dy, h=h, layers=layers,
+        mass=mat["rho_s"] * theta0 * dx * dy, rho_s=mat["rho_s"], theta0=theta0, k=mat["k"],
+        G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
+        kernel=num["kernel"], dt=dt, dt_auto=auto, t_end=t_end, nsteps=nsteps,
+        output_times=times, output_steps=steps, g=tuple(g), limits=limits)
+
+
+def load(path, overrides=()):
+    """Read, override and validate a run file."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise ConfigError("<file>", f"cannot read {path}: {e.strerror}") from None
+    try:
+        raw = tomllib.loads(data.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ConfigError("<file>", f"{path} is not valid TOML: {e}") from None
+    apply_overrides(raw, overrides)
+    return build(raw, dumps(raw))
+
+
+def loads(text, overrides=()):
+    """Validate a run file given as a TOML string."""
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError("<file>", f"not valid TOML: {e}") from None
+    apply_overrides(raw, overrides)
+    return build(raw, dumps(raw))
+
+
+def _toml_value(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(type(v))
+
+
+def dumps(raw):
+    """Write a raw run-file dict back as TOML (tables of scalars and lists only)."""
+    lines = []
+    for section, keys in raw.items():
+        if not isinstance(keys, dict):
+            continue
+        lines.append(f"[{section}]")
+        for key, value in keys.items():
+            try:
+                lines.append(f"{key} = {_toml_value(value)}")
+            except TypeError:
+                raise ConfigError(f"{section}.{key}", f"unsupported value {value!r}") from None
+        lines.append("")
+    return "\n".join(lines)

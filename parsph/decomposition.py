@@ -1,0 +1,159 @@
+"""Slabs along the periodic y direction: halo exchange and migration over MPI.
+
+Rank r owns y in [bounds[r], bounds[r+1]) with equal widths; every slab spans
+the whole channel in x. The ring is periodic: rank P-1's upper neighbour is
+rank 0, and copies that cross y = Ly are shifted by -Ly (going up) or +Ly
+(going down) on arrival. With one rank the rank is its own neighbour and the
+same code runs. Messages are float64 rows sent with mpi4py's buffer methods;
+this module knows nothing of the equations, only of particle arrays.
+"""
+import math
+
+import numpy as np
+from mpi4py import MPI
+
+TAG_UP, TAG_DOWN = 11, 12
+
+
+def slab_bounds(Ly, P):
+    """Edges of P equal slabs on [0, Ly): a pure function, checked serially."""
+    b = np.array([r * Ly / P for r in range(P + 1)])
+    b[-1] = Ly
+    return b
+
+
+def max_ranks(Ly, min_width):
+    """The largest rank count whose slabs are at least ``min_width`` wide."""
+    return max(1, int(math.floor(Ly / min_width * (1 + 1e-12))))
+
+
+class DecompositionError(Exception):
+    """A decomposition that cannot work (slabs too thin)."""
+
+
+class MigrationError(RuntimeError):
+    """A particle moved further than the neighbouring slab in one step."""
+
+
+class SlabRing:
+    """The slab of this rank, its two neighbours and the exchange buffers."""
+
+    def __init__(self, comm, Ly, halo_width):
+        self.comm = comm
+        self.rank, self.size = comm.rank, comm.size
+        self.Ly = Ly
+        self.halo = halo_width
+        P = self.size
+        if Ly / P < halo_width * (1 - 1e-12):
+            raise DecompositionError(
+                f"{P} slabs of Ly = {Ly:g} m are {Ly / P:g} m wide, thinner than the support "
+                f"2h = {halo_width:g} m: use at most {max_ranks(Ly, halo_width)} ranks or Ly >= {P * halo_width:g} m")
+        self.bounds = slab_bounds(Ly, P)
+        self.lo, self.hi = self.bounds[self.rank], self.bounds[self.rank + 1]
+        self.left = (self.rank - 1) % P
+        self.right = (self.rank + 1) % P
+        self._bufs = {}
+        self._idx = {TAG_UP: np.zeros(0, np.int64), TAG_DOWN: np.zeros(0, np.int64)}
+        self._nrecv = {TAG_UP: 0, TAG_DOWN: 0}
+
+    # -- buffers ------------------------------------------------------------
+    def _buf(self, role, tag, rows, width):
+        """A preallocated (rows, width) float64 buffer, grown only when too small."""
+        key = (role, tag, width)
+        buf = self._bufs.get(key)
+        if buf is None or buf.shape[0] < rows:
+            buf = np.zeros((max(rows, 64, 0 if buf is None else int(1.5 * buf.shape[0])), width))
+            self._bufs[key] = buf
+        return buf
+
+    def _exchange_counts(self, n_up, n_down):
+        """Send counts up and down; return counts arriving from below and from above."""
+        s = np.array([n_up, n_down], np.int64)
+        from_left = np.zeros(1, np.int64)
+        from_right = np.zeros(1, np.int64)
+        reqs = [self.comm.Irecv(from_left, source=self.left, tag=TAG_UP),
+                self.comm.Irecv(from_right, source=self.right, tag=TAG_DOWN),
+                self.comm.Isend(s[0:1], dest=self.right, tag=TAG_UP),
+                self.comm.Isend(s[1:2], dest=self.left, tag=TAG_DOWN)]
+        MPI.Request.Waitall(reqs)
+        return int(from_left[0]), int(from_right[0])
+
+    def _exchange_rows(self, width, n_up, n_down, n_from_left, n_from_right, ycol=None):
+        """Move rows of the send buffers to the neighbours (up: right, down: left).
+
+        With ``ycol``, rows that crossed y = Ly get that column shifted by -+Ly.
+        """
+        up = self._buf("recv", TAG_UP, n_from_left, width)[:n_from_left]
+        down = self._buf("recv", TAG_DOWN, n_from_right, width)[:n_from_right]
+        c = self.comm
+        reqs = [c.Irecv([up, MPI.DOUBLE], source=self.left, tag=TAG_UP),
+                c.Irecv([down, MPI.DOUBLE], source=self.right, tag=TAG_DOWN),
+                c.Isend([self._buf("send", TAG_UP, n_up, width)[:n_up], MPI.DOUBLE], dest=self.right, tag=TAG_UP),
+                c.Isend([self._buf("send", TAG_DOWN, n_down, width)[:n_down], MPI.DOUBLE],
+                        dest=self.left, tag=TAG_DOWN)]
+        MPI.Request.Waitall(reqs)
+        if ycol is not None:
+            if self.rank == 0:
+                up[:, ycol] -= self.Ly
+            if self.rank == self.size - 1:
+                down[:, ycol] += self.Ly
+        return up, down
+
+    # -- halo ---------------------------------------------------------------
+    def exchange_halo(self, ps):
+        """Append copies of the neighbours' particles within ``halo`` of this slab."""
+        y = ps.pos[:ps.n_own, 1]
+        up = np.flatnonzero(y >= self.hi - self.halo)
+        down = np.flatnonzero(y < self.lo + self.halo)
+        self._idx[TAG_UP], self._idx[TAG_DOWN] = up, down
+        width = ps.row_width
+        for tag, idx in ((TAG_UP, up), (TAG_DOWN, down)):
+            ps.pack(idx, self._buf("send", tag, len(idx), width))
+        nl, nr = self._exchange_counts(len(up), len(down))
+        self._nrecv[TAG_UP], self._nrecv[TAG_DOWN] = nl, nr
+        from_left, from_right = self._exchange_rows(width, len(up), len(down), nl, nr, ycol=ps.ycol)
+        ps.n = ps.n_own
+        ps.ensure(ps.n_own + nl + nr, keep=ps.n_own)
+        ps.unpack(from_left, ps.n_own)
+        ps.unpack(from_right, ps.n_own + nl)
+        ps.n = ps.n_own + nl + nr
+
+    def exchange_halo_field(self, ps, field):
+        """Refresh a per-particle scalar of the halo copies (same copies as the last exchange)."""
+        arr = getattr(ps, field)
+        n_up, n_down = len(self._idx[TAG_UP]), len(self._idx[TAG_DOWN])
+        for tag, idx in self._idx.items():
+            self._buf("send", tag, len(idx), 1)[:len(idx), 0] = arr[idx]
+        nl, nr = self._nrecv[TAG_UP], self._nrecv[TAG_DOWN]
+        from_left, from_right = self._exchange_rows(1, n_up, n_down, nl, nr)
+        arr[ps.n_own:ps.n_own + nl] = from_left[:, 0]
+        arr[ps.n_own + nl:ps.n_own + nl + nr] = from_right[:, 0]
+
+    # -- migration ----------------------------------------------------------
+    def migrate(self, ps):
+        """Hand owned particles that left the slab to the neighbour that owns them now."""
+        ps.n = ps.n_own
+        y = ps.pos[:ps.n_own, 1]
+        gone = (y < self.lo) | (y >= self.hi)
+        idx = np.flatnonzero(gone)
+        owner = np.searchsorted(self.bounds, y[idx], side="right") - 1
+        bad = (owner != self.left) & (owner != self.right)
+        if bad.any():
+            k = idx[np.argmax(bad)]
+            raise MigrationError(
+                f"particle {ps.gid[k]} at y = {y[k]:.6g} m left slab [{self.lo:.6g}, {self.hi:.6g}) of rank "
+                f"{self.rank} by more than one slab in one step (dt too large or the run blew up)")
+        to_right = owner == self.right
+        up, down = idx[to_right], idx[~to_right]
+        width = ps.row_width
+        for tag, sel in ((TAG_UP, up), (TAG_DOWN, down)):
+            ps.pack(sel, self._buf("send", tag, len(sel), width))
+        nl, nr = self._exchange_counts(len(up), len(down))
+        from_left, from_right = self._exchange_rows(width, len(up), len(down), nl, nr)
+        if len(idx):
+            ps.keep_owned(~gone)
+        n0 = ps.n_own
+        ps.ensure(n0 + nl + nr, keep=n0)
+        ps.unpack(from_left, n0)
+        ps.unpack(from_right, n0 + nl)
+        ps.n_own = ps.n = n0 + nl + nr

@@ -1,0 +1,108 @@
+"""Smoothing kernels W(r, h) and dW/dr, normalised in 1-, 2- and 3-D.
+
+Each kernel is a pair of numba functions ``w(r, inv_h, norm)`` and
+``dwdr(r, inv_h, norm)`` with compact support ``r < 2h``; ``norm`` is the
+dimension- and h-dependent constant from :func:`Kernel.norm`. The loops in
+:mod:`parsph.equations` take the functions as arguments, so numba compiles one
+specialisation per kernel with the kernel inlined.
+"""
+from dataclasses import dataclass
+import math
+
+from numba import njit
+
+
+@njit(cache=True, inline="always")
+def cubic_w(r, inv_h, norm):
+    """Eq. (4): alpha_d (4 - 6R^2 + 3R^3) for R < 1, alpha_d (2 - R)^3 for R < 2."""
+    q = r * inv_h
+    if q < 1.0:
+        return norm * (4.0 - 6.0 * q * q + 3.0 * q * q * q)
+    if q < 2.0:
+        t = 2.0 - q
+        return norm * t * t * t
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def cubic_dwdr(r, inv_h, norm):
+    """dW/dr of Eq. (4)."""
+    q = r * inv_h
+    if q < 1.0:
+        return norm * inv_h * (-12.0 * q + 9.0 * q * q)
+    if q < 2.0:
+        t = 2.0 - q
+        return -3.0 * norm * inv_h * t * t
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def wendland_w(r, inv_h, norm):
+    """Wendland C2 on support 2h: (1 - q/2)^4 (2q + 1) in 2-/3-D."""
+    q = r * inv_h
+    if q < 2.0:
+        t = 1.0 - 0.5 * q
+        t2 = t * t
+        return norm * t2 * t2 * (2.0 * q + 1.0)
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def wendland_dwdr(r, inv_h, norm):
+    """dW/dr of the Wendland C2 kernel: -5 q (1 - q/2)^3 / h."""
+    q = r * inv_h
+    if q < 2.0:
+        t = 1.0 - 0.5 * q
+        return -5.0 * norm * inv_h * q * t * t * t
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def wendland1d_w(r, inv_h, norm):
+    """Wendland C2 in 1-D on support 2h: (1 - q/2)^3 (1.5q + 1)."""
+    q = r * inv_h
+    if q < 2.0:
+        t = 1.0 - 0.5 * q
+        return norm * t * t * t * (1.5 * q + 1.0)
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def wendland1d_dwdr(r, inv_h, norm):
+    """dW/dr of the 1-D Wendland C2 kernel: -3 q (1 - q/2)^2 / h."""
+    q = r * inv_h
+    if q < 2.0:
+        t = 1.0 - 0.5 * q
+        return -3.0 * norm * inv_h * q * t * t
+    return 0.0
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """A kernel: its numba functions and its normalisation per dimension."""
+    name: str
+    w: object
+    dwdr: object
+    alpha: tuple  # alpha_d * h^d for d = 1, 2, 3
+    support: float = 2.0  # in units of h
+
+    def norm(self, h, dim):
+        return self.alpha[dim - 1] / h ** dim
+
+
+CUBIC_SPLINE = Kernel("cubic_spline", cubic_w, cubic_dwdr,
+                      (1.0 / 6.0, 5.0 / (14.0 * math.pi), 1.0 / (4.0 * math.pi)))
+_WENDLAND_23 = Kernel("wendland_c2", wendland_w, wendland_dwdr,
+                      (math.nan, 7.0 / (4.0 * math.pi), 21.0 / (16.0 * math.pi)))
+_WENDLAND_1 = Kernel("wendland_c2", wendland1d_w, wendland1d_dwdr, (5.0 / 8.0, math.nan, math.nan))
+
+KERNEL_NAMES = ("cubic_spline", "wendland_c2")
+
+
+def get_kernel(name, dim):
+    """The kernel called ``name`` in ``dim`` dimensions."""
+    if name == "cubic_spline":
+        return CUBIC_SPLINE
+    if name == "wendland_c2":
+        return _WENDLAND_1 if dim == 1 else _WENDLAND_23
+    raise KeyError(name)
