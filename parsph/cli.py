@@ -1,18 +1,22 @@
 """The ``parsph`` command: run, check, plot.
 
-    parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force]
+    parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
     parsph check OUTPUT [--tol 0.02]
     parsph plot OUTPUT [--png FILE]
 
 Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
-2 bad input (run file, options, output path); 3 a run-time check failed.
+2 bad input (run file, options, output path); 3 a run-time check failed;
+130 / 143 stopped by SIGINT / SIGTERM after writing a restart point.
 """
 import argparse
 import os
+import signal
 import sys
-import time
 
-EXIT_BAD_INPUT, EXIT_GUARD = 2, 3
+EXIT_ERROR, EXIT_BAD_INPUT, EXIT_GUARD = 1, 2, 3
+EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143}
+# Sections a restart may change; every other key is physics and must match.
+RESTART_FREE = ("output", "checks")
 
 
 class UsageError(Exception):
@@ -44,85 +48,149 @@ def _agree(comm, fn):
     return result
 
 
+class _Signals:
+    """SIGINT/SIGTERM set a flag that the time loop polls; the step in hand finishes."""
+
+    def __init__(self):
+        self.received = None
+        for sig in EXIT_SIGNAL:
+            signal.signal(sig, self._handle)
+
+    def _handle(self, signum, frame):
+        self.received = signum
+
+    def __call__(self):
+        return self.received is not None
+
+
 def cmd_run(args):
     from mpi4py import MPI
     comm = MPI.COMM_WORLD  # the one place the world communicator is fetched
     root = comm.rank == 0
+    signals = _Signals()
 
     def say(msg):
         if root:
             print(msg, flush=True)
 
+    from .solver import GuardError, Interrupted
     try:
-        return _run(comm, args, say)
+        return _run(comm, args, say, signals)
     except UsageError as e:
         if root:
             print(f"parsph: error: {e}", file=sys.stderr, flush=True)
         return EXIT_BAD_INPUT
+    except GuardError as e:  # raised on every rank alike
+        if root:
+            print(f"parsph: error: {e}; earlier outputs are intact", file=sys.stderr, flush=True)
+        return EXIT_GUARD
+    except Interrupted as e:  # raised on every rank alike
+        if root:
+            name = signal.Signals(signals.received).name if signals.received else "signal"
+            print(f"parsph: {name}: {e}", file=sys.stderr, flush=True)
+        return EXIT_SIGNAL.get(signals.received, EXIT_ERROR)
     except Exception as e:  # noqa: BLE001 - any failure must end every rank
-        from .solver import GuardError
-        if isinstance(e, GuardError):  # raised on every rank alike
-            if root:
-                print(f"parsph: error: {e}", file=sys.stderr, flush=True)
-            return EXIT_GUARD
         print(f"parsph: error on rank {comm.rank}: {type(e).__name__}: {e}", file=sys.stderr, flush=True)
         if comm.size > 1:
-            comm.Abort(1)
-        return 1
+            comm.Abort(EXIT_ERROR)
+        return EXIT_ERROR
 
 
-def _run(comm, args, say):
+def _restart_state(cfg, path):
+    """The snapshot to continue from, after checking that its physics matches ``cfg``."""
     from . import config
-    from .output import Output
+    from .output import last_snapshot, output_files, read_state
+    try:
+        files = output_files(path)
+    except (FileNotFoundError, ValueError) as e:
+        raise UsageError(f"--restart {path}: {e}") from None
+    snap = last_snapshot(path) if len(files) != 1 else files[0]
+    state = read_state(snap)
+    old = config.loads(state["attrs"]["run_file"]).values
+    for section, keys in cfg.values.items():
+        if section in RESTART_FREE:
+            continue
+        for key, value in keys.items():
+            if old.get(section, {}).get(key) != value:
+                raise UsageError(f"--restart: {section}.{key} = {value!r} differs from {old[section][key]!r} "
+                                 f"in {snap}; a restart may change only [output] and [checks]")
+    return state
+
+
+def _run(comm, args, say, signals):
+    from . import config
+    from .output import Output, output_files
     from .solver import Simulation
 
     stem = os.path.splitext(os.path.basename(args.config))[0]
-    out_dir = args.out or os.path.join("out", stem)
-    path = os.path.join(out_dir, stem + ".h5")
+    if args.out:
+        out_dir = args.out
+    elif args.restart:
+        out_dir = args.restart if os.path.isdir(args.restart) else os.path.dirname(os.path.abspath(args.restart))
+    else:
+        out_dir = os.path.join("out", stem)
 
     def prepare():
         cfg = config.load(args.config, args.set or ())
-        if os.path.exists(path) and not args.force:
-            raise UsageError(f"output {path} exists; pass --force to overwrite it")
+        state = _restart_state(cfg, args.restart) if args.restart else None
+        first = 0 if state is None else int(state["attrs"]["index"]) + 1
+        if os.path.isdir(out_dir) and not args.force:
+            taken = [f for f, k in _existing(out_dir, stem) if k >= first]
+            if taken:
+                raise UsageError(f"output {os.path.join(out_dir, taken[0])} exists; "
+                                 f"pass --force to overwrite, or choose --out")
         if comm.rank == 0:
             try:
                 os.makedirs(out_dir, exist_ok=True)
             except OSError as e:
                 raise UsageError(f"cannot create output directory {out_dir}: {e.strerror}") from None
-        return cfg
+        return cfg, state, first
 
     def writable():
         if not os.access(out_dir, os.W_OK):
             raise UsageError(f"output directory {out_dir} is not writable")
 
-    cfg = _agree(comm, prepare)
+    cfg, state, first = _agree(comm, prepare)
     _agree(comm, writable)
-    sim = _agree(comm, lambda: Simulation(cfg, comm))
-    if cfg.dt > min(cfg.limits.values()):
+    if args.force and comm.rank == 0:
+        for f, k in _existing(out_dir, stem):
+            if k >= first:
+                os.remove(os.path.join(out_dir, f))
+    comm.Barrier()
+    sim = _agree(comm, lambda: Simulation(cfg, comm, state=state))
+    if not cfg.dt_auto and cfg.dt > min(cfg.limits.values()):
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
+    steps = f"{cfg.nsteps} steps" if not cfg.dt_auto else f"about {cfg.nsteps} steps (dt auto)"
+    start = f" from t = {sim.t:g} s (step {sim.step})" if state is not None else ""
     say(f"parsph {cfg.values['scene']['name']}: {sim.n_total} particles on {comm.size} rank(s), "
-        f"dt = {cfg.dt:.4g} s, {cfg.nsteps} steps to t = {cfg.t_end:g} s; "
-        f"Re = {cfg.reynolds:.4g}, nu = {cfg.nu:.4g} m^2/s -> {path}")
-    out = Output(comm, path, cfg, sim)
+        f"dt = {cfg.dt:.4g} s, {steps} to t = {cfg.t_end:g} s{start}; "
+        f"Re = {cfg.reynolds:.4g}, nu = {cfg.nu:.4g} m^2/s -> {out_dir}/{stem}_NNNN.h5")
+    out = Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first)
 
     def progress(s, rate, eta):
         say(f"  step {s.step:>7d}/{cfg.nsteps}  t = {s.t:.5f} s  {rate:.3g} particle-steps/s  "
             f"left {_fmt_time(eta)}")
 
-    try:
-        sim.run(output=out, progress=progress if not args.quiet else None)
-    finally:
-        out.close()
+    step0 = sim.step
+    sim.run(output=out, progress=None if args.quiet else progress, stop_requested=signals)
     total = sim.wall_time
-    rate = sim.n_total * cfg.nsteps / total if total > 0 else float("nan")
-    say(f"done: {cfg.nsteps} steps in {total:.1f} s ({rate:.3g} particle-steps/s)")
-    if comm.rank == 0 and len(cfg.output_times):
-        print_table(path)
+    steps_done = sim.step - step0
+    rate = sim.n_total * steps_done / total if total > 0 else float("nan")
+    say(f"done: {steps_done} steps in {total:.1f} s ({rate:.3g} particle-steps/s)")
+    if comm.rank == 0 and output_files(out_dir):
+        print_table(out_dir)
     return 0
 
 
+def _existing(out_dir, stem):
+    """(file name, output index) of the run's outputs in out_dir, unfinished ones too."""
+    import re
+    pat = re.compile(re.escape(stem) + r"_(\d{4})\.h5(\.part)?$")
+    return sorted((f, int(m.group(1))) for f in os.listdir(out_dir) if (m := pat.match(f)))
+
+
 def print_table(path, tol=None):
-    """Print the error table of an output file; return the worst max error."""
+    """Print the error table of a run's outputs; return the worst max error."""
     from .output import read_profile
     p = read_profile(path)
     print(f"{'t [s]':>10} {'max |err|/V_w':>14} {'rms err/V_w':>12}")
@@ -130,27 +198,22 @@ def print_table(path, tol=None):
     for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"]):
         flag = "" if tol is None or emax <= tol else "  > tol"
         print(f"{t:>10.4g} {emax:>14.3e} {erms:>12.3e}{flag}")
-        worst = max(worst, emax)
+        worst = max(worst, emax) if emax == emax else float("nan")
     return worst
 
 
-def _output_path(arg):
-    if os.path.isdir(arg):
-        files = sorted(f for f in os.listdir(arg) if f.endswith(".h5"))
-        if len(files) != 1:
-            raise UsageError(f"{arg} holds {len(files)} .h5 files; name one")
-        return os.path.join(arg, files[0])
-    if not os.path.exists(arg):
-        raise UsageError(f"no such output: {arg}")
-    return arg
+def _read(path, fn):
+    try:
+        return fn(path)
+    except (FileNotFoundError, ValueError, OSError) as e:
+        raise UsageError(f"cannot read output {path}: {e}") from None
 
 
 def cmd_check(args):
-    path = _output_path(args.output)
-    worst = print_table(path, args.tol)
-    if worst != worst or worst > args.tol:
+    worst = _read(args.output, lambda p: print_table(p, args.tol))
+    if not worst <= args.tol:
         print(f"parsph check: max error {worst:.3e} above tolerance {args.tol:g}", file=sys.stderr)
-        return 1
+        return EXIT_ERROR
     print(f"parsph check: all errors within {args.tol:g}")
     return 0
 
@@ -159,19 +222,20 @@ def cmd_plot(args):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from .output import read_profile
-    path = _output_path(args.output)
-    p = read_profile(path)
-    png = args.png or os.path.splitext(path)[0] + "_profile.png"
+    import numpy as np
+    from .output import output_files, read_profile
+    p = _read(args.output, read_profile)
+    first = output_files(args.output)[0]
+    png = args.png or os.path.join(os.path.dirname(first), os.path.basename(first)[:-8] + "_profile.png")
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    colors = plt.cm.viridis(__import__("numpy").linspace(0, 0.9, max(1, len(p["time"]))))
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
     L = p["attrs"]["L"]
     for c, t, vy, ve in zip(colors, p["time"], p["vy"], p["vy_exact"]):
         ax.plot(p["x"] / L, ve, "-", color=c, lw=1.2)
         ax.plot(p["x"] / L, vy, "o", color=c, ms=3, label=f"t = {t:g} s")
     ax.set_xlabel("x / L")
     ax.set_ylabel("v_y [m/s]")
-    ax.set_title("SPH (points) against Eq. (8) (lines)")
+    ax.set_title("SPH (points) against the reference (lines)")
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(png, dpi=120)
@@ -185,15 +249,17 @@ def build_parser():
     r = sub.add_parser("run", help="run a case (under mpirun for several ranks)")
     r.add_argument("config", help="run file (TOML)")
     r.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
-    r.add_argument("--out", help="output directory (default out/<run-file name>)")
-    r.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    r.add_argument("--out", help="output directory (default out/<run-file name>; with --restart, the restart's)")
+    r.add_argument("--force", action="store_true", help="overwrite existing output files")
+    r.add_argument("--restart", metavar="OUTPUT",
+                   help="continue from the last snapshot of OUTPUT (a directory or one output file)")
     r.add_argument("--quiet", action="store_true", help="no progress lines")
-    c = sub.add_parser("check", help="print the error table of an output; exit 1 above --tol")
-    c.add_argument("output", help="output file or directory")
+    c = sub.add_parser("check", help="print the error table of a run; exit 1 above --tol")
+    c.add_argument("output", help="output directory or file")
     c.add_argument("--tol", type=float, default=0.02, help="largest max error / V_w accepted (default 0.02)")
     pl = sub.add_parser("plot", help="PNG of the simulated profiles over the reference")
-    pl.add_argument("output", help="output file or directory")
-    pl.add_argument("--png", help="PNG path (default next to the output file)")
+    pl.add_argument("output", help="output directory or file")
+    pl.add_argument("--png", help="PNG path (default next to the outputs)")
     return p
 
 

@@ -10,6 +10,7 @@ import tomllib
 
 from .kernels import KERNEL_NAMES, get_kernel
 from . import closures
+from .integrate import INTEGRATORS
 
 REQUIRED = object()
 
@@ -65,7 +66,10 @@ SCHEMA = {
         "dt_safety": Key("float", 1.0, positive=True, hi=1.0 + 1e-12,
                          doc="factor on the stability limits for dt = \"auto\""),
         "allow_unstable_dt": Key("bool", False, doc="run a dt above the stability limit (warns)"),
-        "integrator": Key("str", "paper", choices=("paper",), doc="time integrator"),
+        "integrator": Key("str", "paper", choices=INTEGRATORS,
+                          doc="time integrator: Eqs. (6)-(7), or explicit midpoint (second order)"),
+        "viscosity_form": Key("str", "paper", choices=("paper", "symmetric"),
+                              doc="mu_i = k theta_i (paper) or the pair mean k (theta_i + theta_j)/2"),
     },
     "body_force": {
         "g": Key("floatlist", None, doc="body force per unit mass [m/s^2], one entry per dimension"),
@@ -75,7 +79,12 @@ SCHEMA = {
         "times": Key("floatlist", (), doc="times of profile and snapshot output [s]"),
         "snapshots": Key("bool", True, doc="write particle snapshots at the output times"),
         "progress_interval": Key("float", 5.0, nonnegative=True, doc="seconds between progress lines (0: none)"),
-        "check_every": Key("int", 50, lo=1, doc="steps between run-time checks (NaN, walls)"),
+    },
+    "checks": {
+        "every": Key("int", 20, lo=1, doc="steps between run-time checks"),
+        "theta_change": Key("float", 0.5, positive=True,
+                            doc="largest accepted |theta - theta0| / theta0 of a fluid particle"),
+        "energy": Key("bool", True, doc="stop when the fluid's kinetic energy exceeds the scene's bound"),
     },
 }
 
@@ -203,7 +212,7 @@ class RunConfig:
     t_end: float
     nsteps: int
     output_times: tuple
-    output_steps: tuple
+    integrator: str
     g: tuple
     limits: dict = field(default_factory=dict)
 
@@ -211,6 +220,11 @@ class RunConfig:
     def nu(self):
         """Kinematic viscosity k theta0 / rho_s (Eq. (5) in a uniform state)."""
         return self.k * self.theta0 / self.rho_s
+
+    @property
+    def spacing(self):
+        """Lattice step per dimension [m]."""
+        return (self.dx, self.dy)
 
     @property
     def reynolds(self):
@@ -280,13 +294,12 @@ def build(raw, text):
     for t in times:
         if not 0 <= t <= t_end * (1 + 1e-12):
             raise ConfigError("output.times", f"{t:g} s lies outside [0, t_end = {t_end:g} s]")
-    steps = tuple(round(t / dt) for t in times)
     return RunConfig(
         values=v, text=text, dim=dim, L=L, Ly=Ly, Nx=Nx, Ny=Ny, dx=dx, dy=dy, h=h, layers=layers,
         mass=mat["rho_s"] * theta0 * dx * dy, rho_s=mat["rho_s"], theta0=theta0, k=mat["k"],
         G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
         kernel=num["kernel"], dt=dt, dt_auto=auto, t_end=t_end, nsteps=nsteps,
-        output_times=times, output_steps=steps, g=tuple(g), limits=limits)
+        output_times=times, integrator=num["integrator"], g=tuple(g), limits=limits)
 
 
 def load(path, overrides=()):

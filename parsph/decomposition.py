@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 from mpi4py import MPI
+from numba import njit
 
 TAG_UP, TAG_DOWN = 11, 12
 
@@ -25,6 +26,21 @@ def slab_bounds(Ly, P):
 def max_ranks(Ly, min_width):
     """The largest rank count whose slabs are at least ``min_width`` wide."""
     return max(1, int(math.floor(Ly / min_width * (1 + 1e-12))))
+
+
+@njit(cache=True)
+def _select_bands(y, n, lo, hi, up, down):
+    """Indices with y >= hi (into ``up``) and y < lo (into ``down``); returns both counts."""
+    nu = 0
+    nd = 0
+    for i in range(n):
+        if y[i] >= hi:
+            up[nu] = i
+            nu += 1
+        if y[i] < lo:
+            down[nd] = i
+            nd += 1
+    return nu, nd
 
 
 class DecompositionError(Exception):
@@ -53,7 +69,8 @@ class SlabRing:
         self.left = (self.rank - 1) % P
         self.right = (self.rank + 1) % P
         self._bufs = {}
-        self._idx = {TAG_UP: np.zeros(0, np.int64), TAG_DOWN: np.zeros(0, np.int64)}
+        self._idx = {TAG_UP: np.zeros(64, np.int64), TAG_DOWN: np.zeros(64, np.int64)}
+        self._nsend = {TAG_UP: 0, TAG_DOWN: 0}
         self._nrecv = {TAG_UP: 0, TAG_DOWN: 0}
 
     # -- buffers ------------------------------------------------------------
@@ -100,18 +117,24 @@ class SlabRing:
         return up, down
 
     # -- halo ---------------------------------------------------------------
+    def _select(self, ps, lo, hi):
+        """Owned particles with y < lo (sent down) and y >= hi (sent up)."""
+        n = ps.n_own
+        if self._idx[TAG_UP].shape[0] < n:
+            self._idx = {TAG_UP: np.zeros(ps.capacity, np.int64), TAG_DOWN: np.zeros(ps.capacity, np.int64)}
+        nu, nd = _select_bands(ps.pos[:, 1], n, lo, hi, self._idx[TAG_UP], self._idx[TAG_DOWN])
+        self._nsend[TAG_UP], self._nsend[TAG_DOWN] = nu, nd
+        return nu, nd
+
     def exchange_halo(self, ps):
         """Append copies of the neighbours' particles within ``halo`` of this slab."""
-        y = ps.pos[:ps.n_own, 1]
-        up = np.flatnonzero(y >= self.hi - self.halo)
-        down = np.flatnonzero(y < self.lo + self.halo)
-        self._idx[TAG_UP], self._idx[TAG_DOWN] = up, down
+        nu, nd = self._select(ps, self.lo + self.halo, self.hi - self.halo)
         width = ps.row_width
-        for tag, idx in ((TAG_UP, up), (TAG_DOWN, down)):
-            ps.pack(idx, self._buf("send", tag, len(idx), width))
-        nl, nr = self._exchange_counts(len(up), len(down))
+        for tag, k in ((TAG_UP, nu), (TAG_DOWN, nd)):
+            ps.pack(self._idx[tag], k, self._buf("send", tag, k, width))
+        nl, nr = self._exchange_counts(nu, nd)
         self._nrecv[TAG_UP], self._nrecv[TAG_DOWN] = nl, nr
-        from_left, from_right = self._exchange_rows(width, len(up), len(down), nl, nr, ycol=ps.ycol)
+        from_left, from_right = self._exchange_rows(width, nu, nd, nl, nr, ycol=ps.ycol)
         ps.n = ps.n_own
         ps.ensure(ps.n_own + nl + nr, keep=ps.n_own)
         ps.unpack(from_left, ps.n_own)
@@ -121,37 +144,44 @@ class SlabRing:
     def exchange_halo_field(self, ps, field):
         """Refresh a per-particle scalar of the halo copies (same copies as the last exchange)."""
         arr = getattr(ps, field)
-        n_up, n_down = len(self._idx[TAG_UP]), len(self._idx[TAG_DOWN])
-        for tag, idx in self._idx.items():
-            self._buf("send", tag, len(idx), 1)[:len(idx), 0] = arr[idx]
+        nu, nd = self._nsend[TAG_UP], self._nsend[TAG_DOWN]
+        for tag, k in ((TAG_UP, nu), (TAG_DOWN, nd)):
+            self._buf("send", tag, k, 1)[:k, 0] = arr[self._idx[tag][:k]]
         nl, nr = self._nrecv[TAG_UP], self._nrecv[TAG_DOWN]
-        from_left, from_right = self._exchange_rows(1, n_up, n_down, nl, nr)
+        from_left, from_right = self._exchange_rows(1, nu, nd, nl, nr)
         arr[ps.n_own:ps.n_own + nl] = from_left[:, 0]
         arr[ps.n_own + nl:ps.n_own + nl + nr] = from_right[:, 0]
 
     # -- migration ----------------------------------------------------------
     def migrate(self, ps):
-        """Hand owned particles that left the slab to the neighbour that owns them now."""
+        """Hand owned particles that left the slab to the neighbour that owns them now.
+
+        Positions are already wrapped into [0, Ly), so the owner, not the sign
+        of the motion, decides the direction (rank 0's particles that cross
+        y = 0 go to rank P-1).
+        """
         ps.n = ps.n_own
-        y = ps.pos[:ps.n_own, 1]
-        gone = (y < self.lo) | (y >= self.hi)
-        idx = np.flatnonzero(gone)
-        owner = np.searchsorted(self.bounds, y[idx], side="right") - 1
-        bad = (owner != self.left) & (owner != self.right)
-        if bad.any():
-            k = idx[np.argmax(bad)]
-            raise MigrationError(
-                f"particle {ps.gid[k]} at y = {y[k]:.6g} m left slab [{self.lo:.6g}, {self.hi:.6g}) of rank "
-                f"{self.rank} by more than one slab in one step (dt too large or the run blew up)")
-        to_right = owner == self.right
-        up, down = idx[to_right], idx[~to_right]
+        nu, nd = self._select(ps, self.lo, self.hi)
+        up = down = gone = self._idx[TAG_UP][:0]
+        if nu + nd:
+            gone = np.sort(np.concatenate([self._idx[TAG_UP][:nu], self._idx[TAG_DOWN][:nd]]))
+            y = ps.pos[gone, 1]
+            owner = np.searchsorted(self.bounds, y, side="right") - 1
+            to_right = owner == self.right
+            bad = ~to_right & (owner != self.left)
+            if bad.any():
+                k = gone[np.argmax(bad)]
+                raise MigrationError(
+                    f"particle {ps.gid[k]} at y = {ps.pos[k, 1]:.6g} m left slab [{self.lo:.6g}, {self.hi:.6g}) "
+                    f"of rank {self.rank} by more than one slab in one step (dt too large or the run blew up)")
+            up, down = gone[to_right], gone[~to_right]
         width = ps.row_width
         for tag, sel in ((TAG_UP, up), (TAG_DOWN, down)):
-            ps.pack(sel, self._buf("send", tag, len(sel), width))
+            ps.pack(sel, len(sel), self._buf("send", tag, len(sel), width))
         nl, nr = self._exchange_counts(len(up), len(down))
         from_left, from_right = self._exchange_rows(width, len(up), len(down), nl, nr)
-        if len(idx):
-            ps.keep_owned(~gone)
+        if len(gone):
+            ps.keep_owned(gone, len(gone))
         n0 = ps.n_own
         ps.ensure(n0 + nl + nr, keep=n0)
         ps.unpack(from_left, n0)

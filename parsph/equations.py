@@ -8,43 +8,63 @@
                 + mu_i sum_j m_j v_ij (theta_i+theta_j)/(rho_bar_i rho_bar_j) (1/r_ij) dW/dr
                 + g,      mu_i = k theta_i,
 
+  (``symmetric_mu``: mu_i replaced by the pair mean k (theta_i + theta_j)/2,
+  which is the same in a uniform state but makes the viscous force of a pair
+  antisymmetric, so that momentum is conserved exactly),
+
   with wall particles j (Morris et al. 1997) seen through
   ``v_ij = beta (v_i - v_j)``, ``beta = min(beta_max, 1 + d_j/d_i)``, d the
   distance to the wall's plate (x = 0 or x = L).
 
-Particle i visits the 3^dim cells around its own in a fixed order, and the
-particles of each cell in gid order (see :mod:`parsph.neighbours`), so every
-sum is taken in an order that does not depend on the decomposition. These
-functions know nothing of MPI: halo copies are ordinary neighbours.
+The loops work on copies of the particle fields in cell order (see
+:mod:`parsph.neighbours`), positions and velocities as separate x, y, z
+arrays (z = 0 in 2-D, so one code path serves both). The density pass finds
+each fluid particle's neighbours by visiting the 3^dim surrounding cells in a
+fixed order and the particles of a cell in gid order; it stores them, with
+(dW/dr)/r, in a neighbour list that the momentum pass walks in the same
+order. Every sum is thus taken in an order that does not depend on the
+decomposition. These functions know nothing of MPI: halo copies are ordinary
+neighbours.
 """
 import math
 
 from numba import njit
 
+from .kernels import kernel_dwdr, kernel_w
 from .particles import FLUID
 
 
-@njit(cache=True, inline="always")
-def _cell_index(cx, cy, cz, ncx, ncy):
-    return (cz * ncy + cy) * ncx + cx
-
-
 @njit(cache=True)
-def density(pos, mass, kind, n_own, cell_xy, start, order, ncx, ncy, ncz,
-            h, norm, kernel_w, rho_wall, rho):
-    """Eq. (3) for the owned fluid particles; wall particles hold rho_wall (theta_0)."""
-    dim = pos.shape[1]
+def density(n, sx, sy, sz, sm, skind, owned, cell_of, start, ncx, ncy, ncz, h, norm,
+            kid, rho_wall, srho, nbr_start, nbr_j, nbr_f):
+    """Eq. (3) for the owned fluid particles among sorted places 0..n-1; owned walls hold rho_wall.
+
+    Also fills the neighbour list: fluid particle k's neighbours are
+    ``nbr_j[nbr_start[k]:nbr_start[k+1]]`` with ``nbr_f = (dW/dr)/r``.
+    Returns the number of list entries needed; if that exceeds
+    ``len(nbr_j)`` the list is incomplete and the call must be repeated with
+    larger arrays.
+    """
     inv_h = 1.0 / h
     support2 = 4.0 * h * h
-    zr = 1 if dim == 3 else 0
-    for i in range(n_own):
-        if kind[i] != FLUID:
-            rho[i] = rho_wall
+    zr = 1 if ncz > 1 else 0
+    cap = nbr_j.shape[0]
+    p = 0
+    for i in range(n):
+        nbr_start[i] = p
+        if not owned[i]:
+            continue
+        if skind[i] != FLUID:
+            srho[i] = rho_wall
             continue
         s = 0.0
-        cx0 = cell_xy[i, 0]
-        cy0 = cell_xy[i, 1]
-        cz0 = cell_xy[i, 2]
+        xi = sx[i]
+        yi = sy[i]
+        zi = sz[i]
+        c0 = cell_of[i]
+        cx0 = c0 % ncx
+        cy0 = (c0 // ncx) % ncy
+        cz0 = c0 // (ncx * ncy)
         for a in range(-1, 2):
             cx = cx0 + a
             if cx < 0 or cx >= ncx:
@@ -57,16 +77,23 @@ def density(pos, mass, kind, n_own, cell_xy, start, order, ncx, ncy, ncz,
                     cz = cz0 + e
                     if cz < 0 or cz >= ncz:
                         continue
-                    c = _cell_index(cx, cy, cz, ncx, ncy)
-                    for k in range(start[c], start[c + 1]):
-                        j = order[k]
-                        r2 = 0.0
-                        for d in range(dim):
-                            dd = pos[i, d] - pos[j, d]
-                            r2 += dd * dd
+                    c = (cz * ncy + cy) * ncx + cx
+                    for j in range(start[c], start[c + 1]):
+                        dx = xi - sx[j]
+                        dy = yi - sy[j]
+                        dz = zi - sz[j]
+                        r2 = dx * dx + dy * dy + dz * dz
                         if r2 < support2:
-                            s += mass[j] * kernel_w(math.sqrt(r2), inv_h, norm)
-        rho[i] = s
+                            r = math.sqrt(r2)
+                            s += sm[j] * kernel_w(kid, r, inv_h, norm)
+                            if j != i:
+                                if p < cap:
+                                    nbr_j[p] = j
+                                    nbr_f[p] = kernel_dwdr(kid, r, inv_h, norm) / r
+                                p += 1
+        srho[i] = s
+    nbr_start[n] = p
+    return p
 
 
 @njit(cache=True)
@@ -79,76 +106,55 @@ def volume_fraction(rho, n, rho_s, G_a, theta, half_G):
 
 
 @njit(cache=True)
-def momentum(pos, vel, mass, kind, rho, theta, half_G, n_own,
-             cell_xy, start, order, ncx, ncy, ncz, h, norm, kernel_dwdr,
-             rho_s, G_b, k_visc, L, beta_max, g, pressure, viscosity, acc):
-    """Eq. (5): acceleration of each owned fluid particle (walls: zero)."""
-    dim = pos.shape[1]
-    inv_h = 1.0 / h
-    support2 = 4.0 * h * h
+def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, shalf_G, owned,
+             nbr_start, nbr_j, nbr_f, rho_s, G_b, k_visc, L, beta_max, g,
+             pressure, viscosity, symmetric_mu, sax, say, saz):
+    """Eq. (5): acceleration of each owned fluid particle (sorted places; walls: zero)."""
     G_pref = 10.0 ** G_b
     inv_rho_s2 = 1.0 / (rho_s * rho_s)
-    zr = 1 if dim == 3 else 0
-    ai = g.copy()
-    for i in range(n_own):
-        for d in range(dim):
-            acc[i, d] = 0.0
-        if kind[i] != FLUID:
+    for i in range(n):
+        sax[i] = 0.0
+        say[i] = 0.0
+        saz[i] = 0.0
+        if not owned[i] or skind[i] != FLUID:
             continue
-        th_i = theta[i]
+        th_i = stheta[i]
         inv_th_i = 1.0 / th_i
         mu_i = k_visc * th_i
-        rho_i = rho[i]
-        hg_i = half_G[i]
-        x_i = pos[i, 0]
-        for d in range(dim):
-            ai[d] = 0.0
-        cx0 = cell_xy[i, 0]
-        cy0 = cell_xy[i, 1]
-        cz0 = cell_xy[i, 2]
-        for a in range(-1, 2):
-            cx = cx0 + a
-            if cx < 0 or cx >= ncx:
-                continue
-            for b in range(-1, 2):
-                cy = cy0 + b
-                if cy < 0 or cy >= ncy:
-                    continue
-                for e in range(-zr, zr + 1):
-                    cz = cz0 + e
-                    if cz < 0 or cz >= ncz:
-                        continue
-                    c = _cell_index(cx, cy, cz, ncx, ncy)
-                    for kk in range(start[c], start[c + 1]):
-                        j = order[kk]
-                        r2 = 0.0
-                        for d in range(dim):
-                            dd = pos[i, d] - pos[j, d]
-                            r2 += dd * dd
-                        if r2 >= support2 or r2 == 0.0:
-                            continue
-                        r = math.sqrt(r2)
-                        f_over_r = kernel_dwdr(r, inv_h, norm) / r
-                        m_j = mass[j]
-                        if pressure:
-                            cp = -m_j * inv_rho_s2 * G_pref * hg_i * half_G[j] \
-                                * (inv_th_i + 1.0 / theta[j]) * f_over_r
-                            for d in range(dim):
-                                ai[d] += cp * (pos[i, d] - pos[j, d])
-                        if viscosity:
-                            beta = 1.0
-                            if kind[j] != FLUID:
-                                if pos[j, 0] < 0.0:
-                                    d_j = -pos[j, 0]
-                                    d_i = x_i
-                                else:
-                                    d_j = pos[j, 0] - L
-                                    d_i = L - x_i
-                                beta = beta_max
-                                if d_i > 0.0:
-                                    beta = min(beta_max, 1.0 + d_j / d_i)
-                            cv = mu_i * m_j * (th_i + theta[j]) / (rho_i * rho[j]) * f_over_r * beta
-                            for d in range(dim):
-                                ai[d] += cv * (vel[i, d] - vel[j, d])
-        for d in range(dim):
-            acc[i, d] = ai[d] + g[d]
+        rho_i = srho[i]
+        hg_i = shalf_G[i]
+        xi = sx[i]
+        yi = sy[i]
+        zi = sz[i]
+        ax = 0.0
+        ay = 0.0
+        az = 0.0
+        for p in range(nbr_start[i], nbr_start[i + 1]):
+            j = nbr_j[p]
+            f_over_r = nbr_f[p]
+            m_j = sm[j]
+            if pressure:
+                cp = -m_j * inv_rho_s2 * G_pref * hg_i * shalf_G[j] * (inv_th_i + 1.0 / stheta[j]) * f_over_r
+                ax += cp * (xi - sx[j])
+                ay += cp * (yi - sy[j])
+                az += cp * (zi - sz[j])
+            if viscosity:
+                beta = 1.0
+                if skind[j] != FLUID:
+                    if sx[j] < 0.0:
+                        d_j = -sx[j]
+                        d_i = xi
+                    else:
+                        d_j = sx[j] - L
+                        d_i = L - xi
+                    beta = beta_max
+                    if d_i > 0.0:
+                        beta = min(beta_max, 1.0 + d_j / d_i)
+                mu = 0.5 * k_visc * (th_i + stheta[j]) if symmetric_mu else mu_i
+                cv = mu * m_j * (th_i + stheta[j]) / (rho_i * srho[j]) * f_over_r * beta
+                ax += cv * (svx[i] - svx[j])
+                ay += cv * (svy[i] - svy[j])
+                az += cv * (svz[i] - svz[j])
+        sax[i] = ax + g[0]
+        say[i] = ay + g[1]
+        saz[i] = az + g[2]

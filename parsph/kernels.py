@@ -3,8 +3,9 @@
 Each kernel is a pair of numba functions ``w(r, inv_h, norm)`` and
 ``dwdr(r, inv_h, norm)`` with compact support ``r < 2h``; ``norm`` is the
 dimension- and h-dependent constant from :func:`Kernel.norm`. The loops in
-:mod:`parsph.equations` take the functions as arguments, so numba compiles one
-specialisation per kernel with the kernel inlined.
+:mod:`parsph.equations` call :func:`kernel_w` / :func:`kernel_dwdr` with the
+kernel's integer id (a function passed as an argument would make numba's
+on-disk cache key differ in every process, so nothing would be reused).
 """
 from dataclasses import dataclass
 import math
@@ -77,6 +78,29 @@ def wendland1d_dwdr(r, inv_h, norm):
     return 0.0
 
 
+CUBIC, WENDLAND, WENDLAND_1D = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def kernel_w(kid, r, inv_h, norm):
+    """W of kernel ``kid``."""
+    if kid == CUBIC:
+        return cubic_w(r, inv_h, norm)
+    if kid == WENDLAND:
+        return wendland_w(r, inv_h, norm)
+    return wendland1d_w(r, inv_h, norm)
+
+
+@njit(cache=True, inline="always")
+def kernel_dwdr(kid, r, inv_h, norm):
+    """dW/dr of kernel ``kid``."""
+    if kid == CUBIC:
+        return cubic_dwdr(r, inv_h, norm)
+    if kid == WENDLAND:
+        return wendland_dwdr(r, inv_h, norm)
+    return wendland1d_dwdr(r, inv_h, norm)
+
+
 @dataclass(frozen=True)
 class Kernel:
     """A kernel: its numba functions and its normalisation per dimension."""
@@ -84,6 +108,7 @@ class Kernel:
     w: object
     dwdr: object
     alpha: tuple  # alpha_d * h^d for d = 1, 2, 3
+    kid: int  # id for kernel_w / kernel_dwdr
     support: float = 2.0  # in units of h
 
     def norm(self, h, dim):
@@ -91,12 +116,29 @@ class Kernel:
 
 
 CUBIC_SPLINE = Kernel("cubic_spline", cubic_w, cubic_dwdr,
-                      (1.0 / 6.0, 5.0 / (14.0 * math.pi), 1.0 / (4.0 * math.pi)))
+                      (1.0 / 6.0, 5.0 / (14.0 * math.pi), 1.0 / (4.0 * math.pi)), CUBIC)
 _WENDLAND_23 = Kernel("wendland_c2", wendland_w, wendland_dwdr,
-                      (math.nan, 7.0 / (4.0 * math.pi), 21.0 / (16.0 * math.pi)))
-_WENDLAND_1 = Kernel("wendland_c2", wendland1d_w, wendland1d_dwdr, (5.0 / 8.0, math.nan, math.nan))
+                      (math.nan, 7.0 / (4.0 * math.pi), 21.0 / (16.0 * math.pi)), WENDLAND)
+_WENDLAND_1 = Kernel("wendland_c2", wendland1d_w, wendland1d_dwdr, (5.0 / 8.0, math.nan, math.nan),
+                     WENDLAND_1D)
 
 KERNEL_NAMES = ("cubic_spline", "wendland_c2")
+
+
+def lattice_sum(kernel, h, spacing):
+    """sum_j W(|r_j|, h) over the points of an infinite rectangular lattice around one of them.
+
+    ``spacing`` gives the lattice step per dimension; times the particle mass
+    this is the summation density Eq. (3) of a particle inside the lattice.
+    """
+    import numpy as np
+    dim = len(spacing)
+    reach = kernel.support * h
+    axes = [np.arange(-int(reach / s) - 1, int(reach / s) + 2) * s for s in spacing]
+    grids = np.meshgrid(*axes, indexing="ij")
+    r = np.sqrt(sum(g * g for g in grids)).ravel()
+    norm = kernel.norm(h, dim)
+    return float(sum(kernel.w(float(x), 1.0 / h, norm) for x in np.sort(r)))
 
 
 def get_kernel(name, dim):

@@ -1,60 +1,89 @@
-"""Cell linked list (cells of side >= 2h) for neighbour candidates.
+"""Cell linked list (cells of side >= 2h) and the cell-ordered copies the loops read.
 
-Cell coordinates are global: ``floor((x - x0) / cs)`` and ``floor(y / cs)``
-(``y`` including the periodic shift of halo copies), so a particle falls into
-the same cell whatever the number of ranks. Inside a cell particles are ordered
-by global id. Loops that visit the 3^dim neighbour cells in a fixed order
-therefore add up contributions in the same order on any rank count, which is
-what makes results independent of P bit for bit.
+Cell coordinates are global: ``floor((x - x0) / cs)``, ``floor(y / cs)`` and
+``floor(z / cs)`` (``y`` including the periodic shift of halo copies), so a
+particle falls into the same cell whatever the number of ranks. Particles are
+copied into cell order, by global id inside a cell. Loops that visit the
+3^dim neighbour cells in a fixed order therefore add up contributions in the
+same order on any rank count: results do not depend on P, bit for bit. Cell
+order also puts neighbours next to each other in memory.
 """
 import numpy as np
 from numba import njit
 
 
-@njit(cache=True)
-def build_cells(pos, gid, n, x0, cs, cell_xy, order):
-    """Sort particles 0..n-1 into cells.
+class Workspace:
+    """Preallocated cell-ordered arrays, grown only when the particle count grows."""
 
-    Fills ``cell_xy[i] = (cx, cy, cz)`` local cell coordinates and ``order``
-    (particle indices grouped by cell, by gid inside a cell). Returns
-    ``(start, ncx, ncy, ncz)``: particles of cell c are
-    ``order[start[c]:start[c+1]]``, with ``c = (cz * ncy + cy) * ncx + cx``.
+    FIELDS_F = ("sx", "sy", "sz", "svx", "svy", "svz", "sm", "srho", "stheta", "shalf_G",
+                "sax", "say", "saz")
+    FIELDS_I = ("order", "cell_of", "skind", "tmp")
+
+    def __init__(self):
+        self.capacity = 0
+        self.nbr_start = np.zeros(1, np.int64)
+        self.nbr_j = np.zeros(0, np.int32)
+        self.nbr_f = np.zeros(0)
+
+    def ensure(self, n):
+        if n > self.capacity:
+            cap = max(n, int(1.3 * self.capacity), 64)
+            for name in self.FIELDS_F:
+                setattr(self, name, np.zeros(cap))
+            for name in self.FIELDS_I:
+                setattr(self, name, np.zeros(cap, np.int64))
+            self.owned = np.zeros(cap, np.bool_)
+            self.nbr_start = np.zeros(cap + 1, np.int64)
+            self.capacity = cap
+
+    def ensure_pairs(self, m):
+        if m > self.nbr_j.shape[0]:
+            cap = max(m, int(1.3 * self.nbr_j.shape[0]))
+            self.nbr_j = np.zeros(cap, np.int32)
+            self.nbr_f = np.zeros(cap)
+
+
+@njit(cache=True)
+def sort_into_cells(pos, vel, mass, kind, gid, n, n_own, x0, cs,
+                    order, cell_of, tmp, sx, sy, sz, svx, svy, svz, sm, skind, owned):
+    """Sort particles 0..n-1 into cells and copy their fields in that order.
+
+    ``order[k]`` is the particle at sorted place k; ``cell_of[k]`` its cell
+    ``(cz * ncy + cy) * ncx + cx``. Returns ``(start, ncx, ncy, ncz)``: the
+    particles of cell c are sorted places ``start[c] .. start[c+1]-1``.
     """
     dim = pos.shape[1]
     big = 1 << 60
-    lo = np.array([big, big, big])
-    hi = np.array([-big, -big, -big])
+    lox = loy = loz = big
+    hix = hiy = hiz = -big
     for i in range(n):
-        for d in range(dim):
-            if d == 0:
-                c = int(np.floor((pos[i, 0] - x0) / cs))
-            else:
-                c = int(np.floor(pos[i, d] / cs))
-            cell_xy[i, d] = c
-            if c < lo[d]:
-                lo[d] = c
-            if c > hi[d]:
-                hi[d] = c
-    if dim == 2:
-        lo[2] = 0
-        hi[2] = 0
-    ncx = hi[0] - lo[0] + 1
-    ncy = hi[1] - lo[1] + 1
-    ncz = hi[2] - lo[2] + 1
+        cx = int(np.floor((pos[i, 0] - x0) / cs))
+        cy = int(np.floor(pos[i, 1] / cs))
+        cz = int(np.floor(pos[i, 2] / cs)) if dim == 3 else 0
+        lox = min(lox, cx)
+        hix = max(hix, cx)
+        loy = min(loy, cy)
+        hiy = max(hiy, cy)
+        loz = min(loz, cz)
+        hiz = max(hiz, cz)
+    if n == 0:
+        lox = loy = loz = hix = hiy = hiz = 0
+    ncx = hix - lox + 1
+    ncy = hiy - loy + 1
+    ncz = hiz - loz + 1
     start = np.zeros(ncx * ncy * ncz + 1, np.int64)
     for i in range(n):
-        cx = cell_xy[i, 0] - lo[0]
-        cy = cell_xy[i, 1] - lo[1]
-        cz = (cell_xy[i, 2] - lo[2]) if dim == 3 else 0
-        cell_xy[i, 0] = cx
-        cell_xy[i, 1] = cy
-        cell_xy[i, 2] = cz
-        start[(cz * ncy + cy) * ncx + cx + 1] += 1
+        cx = int(np.floor((pos[i, 0] - x0) / cs)) - lox
+        cy = int(np.floor(pos[i, 1] / cs)) - loy
+        cz = (int(np.floor(pos[i, 2] / cs)) - loz) if dim == 3 else 0
+        c = (cz * ncy + cy) * ncx + cx
+        tmp[i] = c
+        start[c + 1] += 1
     for c in range(ncx * ncy * ncz):
         start[c + 1] += start[c]
     fill = start[:-1].copy()
     for i in range(n):
-        c = (cell_xy[i, 2] * ncy + cell_xy[i, 1]) * ncx + cell_xy[i, 0]
+        c = tmp[i]
         # insertion by gid keeps each cell sorted
         k = fill[c]
         while k > start[c] and gid[order[k - 1]] > gid[i]:
@@ -62,4 +91,48 @@ def build_cells(pos, gid, n, x0, cs, cell_xy, order):
             k -= 1
         order[k] = i
         fill[c] += 1
+    for k in range(n):
+        i = order[k]
+        cell_of[k] = tmp[i]
+        sx[k] = pos[i, 0]
+        sy[k] = pos[i, 1]
+        svx[k] = vel[i, 0]
+        svy[k] = vel[i, 1]
+        if dim == 3:
+            sz[k] = pos[i, 2]
+            svz[k] = vel[i, 2]
+        else:
+            sz[k] = 0.0
+            svz[k] = 0.0
+        sm[k] = mass[i]
+        skind[k] = kind[i]
+        owned[k] = i < n_own
     return start, ncx, ncy, ncz
+
+
+@njit(cache=True)
+def gather(src, order, n, dst):
+    """dst[k] = src[order[k]] for k < n."""
+    for k in range(n):
+        dst[k] = src[order[k]]
+
+
+@njit(cache=True)
+def scatter_owned(src, order, owned, n, dst):
+    """dst[order[k]] = src[k] for the owned sorted places k < n."""
+    for k in range(n):
+        if owned[k]:
+            dst[order[k]] = src[k]
+
+
+@njit(cache=True)
+def scatter_owned_vec(sax, say, saz, order, owned, n, acc):
+    """acc[order[k]] = (sax, say[, saz])[k] for the owned sorted places."""
+    dim = acc.shape[1]
+    for k in range(n):
+        if owned[k]:
+            i = order[k]
+            acc[i, 0] = sax[k]
+            acc[i, 1] = say[k]
+            if dim == 3:
+                acc[i, 2] = saz[k]

@@ -1,120 +1,137 @@
-"""HDF5 output: one file per run, written collectively through h5py's mpio driver.
+"""HDF5 output: one file per output time, written collectively through h5py's mpio driver.
 
-Layout (README.md, "Output file", has the full table with units):
+Directory layout (README.md, "Output files", has the table with units)::
 
-    /                      attrs: parsph_version, run_file (TOML), scene, dim, n_particles, ranks, ...
+    DIR/<name>_NNNN.h5     output k = NNNN: profile and particle snapshot at one time
+    DIR/<name>.xdmf        ParaView sidecar: the snapshots as a time series of points
+
+Each file is written as ``<name>_NNNN.h5.part`` and renamed when complete and
+closed, so a run killed at any moment (even SIGKILL) leaves every earlier
+output whole and readable, and every output file is a restart point. In a file:
+
+    /                      attrs: parsph_version, run_file (TOML), scene, dim, n_particles, ranks,
+                                  time, step, index, dt, L, Ly, V_w, nu, integrator state
     /profile/x             (Nx,)          bin centres [m]
-    /profile/time          (n_out,)       output times [s]
-    /profile/step          (n_out,)       step numbers
-    /profile/vy            (n_out, Nx)    simulated v_y per bin [m/s]
-    /profile/count         (n_out, Nx)    fluid particles per bin
-    /profile/vy_exact      (n_out, Nx)    reference v_y, scenes with one [m/s]
-    /profile/err_max, err_rms (n_out,)    |v - v_exact| / V_w, max and RMS over bins
-    /snapshots/NNNN/{id, kind, position, velocity, theta}   (N,), (N,), (N, dim), (N, dim), (N,)
+    /profile/vy            (Nx,)          simulated v_y per bin [m/s]
+    /profile/count         (Nx,)          fluid particles per bin
+    /profile/vy_exact      (Nx,)          reference v_y, scenes with one [m/s]
+    /profile attrs         err_max, err_rms: |v - v_exact| / V_w, max and RMS over bins
+    /particles/{id, kind, position, velocity, theta}   (N,), (N,), (N, dim), (N, dim), (N,)
 
-``/profile`` attr ``written`` counts complete outputs. Each rank writes its
-particles as one hyperslab at the offset given by an exclusive scan of the
-particle counts. When h5py lacks MPI, rank 0 gathers and writes instead. An
-XDMF sidecar (``<name>.xdmf``) lets ParaView open the snapshots as points.
+Each rank writes its particles as one hyperslab at the offset given by an
+exclusive scan of the particle counts. When h5py lacks MPI, rank 0 gathers
+and writes instead (one warning line).
 """
+import glob
 import os
+import re
 import sys
 
 import h5py
 import numpy as np
-from mpi4py import MPI
 
 from . import __version__
-from .particles import KIND_NAMES
 
 SERIAL_ENV = "PARSPH_SERIAL_HDF5"  # set to 1 to force the gather-to-rank-0 path
+PARTICLE_FIELDS = ("id", "kind", "mass", "position", "velocity", "theta")
 
 
 def parallel_hdf5_available():
     return bool(h5py.get_config().mpi) and os.environ.get(SERIAL_ENV, "") in ("", "0")
 
 
-class Output:
-    """The run's HDF5 file; collective calls on every rank, data from each."""
+def output_name(stem, k):
+    return f"{stem}_{k:04d}.h5"
 
-    def __init__(self, comm, path, cfg, sim):
+
+class Output:
+    """Writes output k of a run into DIR/<stem>_k.h5; collective on every rank."""
+
+    def __init__(self, comm, out_dir, stem, cfg, n_total, first_index=0):
         self.comm = comm
-        self.path = path
+        self.dir = out_dir
+        self.stem = stem
         self.cfg = cfg
-        self.dim = cfg.dim
-        self.N = sim.n_total
+        self.N = n_total
         self.parallel = parallel_hdf5_available()
         self.root = comm.rank == 0
+        self.index = first_index
         if not self.parallel and comm.size > 1 and self.root:
             print("parsph: warning: h5py has no MPI support; rank 0 gathers and writes the output",
                   file=sys.stderr, flush=True)
+        # (file name, time, has particles) of complete outputs, for the XDMF sidecar;
+        # a restart continues the series of the outputs before it
+        self.written = []
+        if self.root and first_index > 0:
+            for fn in output_files(out_dir):
+                if fn.endswith(".h5") and os.path.basename(fn).startswith(stem + "_"):
+                    with h5py.File(fn, "r") as f:
+                        if int(f.attrs["index"]) < first_index:
+                            self.written.append((os.path.basename(fn), float(f.attrs["time"]), "particles" in f))
+            self.written.sort(key=lambda w: w[1])
+
+    def __call__(self, sim, snapshot=None):
+        """Write the next output: the profile, and the particles if snapshots are on."""
+        cfg, comm = self.cfg, self.comm
+        snapshot = cfg.values["output"]["snapshots"] if snapshot is None else snapshot
+        x, vy, counts, exact, (emax, erms) = sim.profile()
+        name = output_name(self.stem, self.index)
+        final = os.path.join(self.dir, name)
+        part = final + ".part"
         if self.parallel:
-            self.f = h5py.File(path, "w", driver="mpio", comm=comm)
+            f = h5py.File(part, "w", driver="mpio", comm=comm)
         else:
-            self.f = h5py.File(path, "w") if self.root else None
-        self.writes = self.parallel or self.root
-        nout = len(cfg.output_times)
-        nb = sim.nbins
-        if self.writes:
-            f = self.f
+            f = h5py.File(part, "w") if self.root else None
+        if f is not None:
             f.attrs.update({
                 "parsph_version": __version__, "run_file": cfg.text,
                 "scene": cfg.values["scene"]["name"], "dim": cfg.dim, "n_particles": self.N,
-                "ranks": comm.size, "dt": cfg.dt, "L": cfg.L, "Ly": cfg.Ly, "V_w": cfg.V_w,
-                "nu": cfg.nu, "kinds": "0 fluid, 1 fixed wall, 2 moving wall",
-                "units": "SI: m, s, kg, m/s",
+                "ranks": comm.size, "time": sim.t, "step": sim.step, "index": self.index,
+                "dt": sim.dt, "L": cfg.L, "Ly": cfg.Ly, "V_w": cfg.V_w, "nu": cfg.nu,
+                "kinds": "0 fluid, 1 fixed wall, 2 moving wall", "units": "SI: m, s, kg, m/s",
+                "snapshot": bool(snapshot),
             })
             g = f.create_group("profile")
-            g.attrs["written"] = 0
-            for name, shape, dt, unit in (("x", (nb,), "f8", "m"), ("time", (nout,), "f8", "s"),
-                                          ("step", (nout,), "i8", "1"), ("vy", (nout, nb), "f8", "m/s"),
-                                          ("count", (nout, nb), "f8", "1"),
-                                          ("vy_exact", (nout, nb), "f8", "m/s"),
-                                          ("err_max", (nout,), "f8", "1"), ("err_rms", (nout,), "f8", "1")):
-                d = g.create_dataset(name, shape, dtype=dt, fillvalue=np.nan if dt == "f8" else 0)
+            g.attrs["err_max"] = emax
+            g.attrs["err_rms"] = erms
+            for key, arr, unit in (("x", x, "m"), ("vy", vy, "m/s"), ("count", counts, "1"),
+                                   ("vy_exact", exact if exact is not None else np.full_like(x, np.nan), "m/s")):
+                d = g.create_dataset(key, arr.shape, dtype="f8")
                 d.attrs["units"] = unit
-            f.create_group("snapshots")
-        self._snaps = []
-
-    # -- writing ----------------------------------------------------------------
-    def __call__(self, sim, k):
-        """Write output number k: the profile, and a particle snapshot if enabled."""
-        x, vy, counts, exact, (emax, erms) = sim.profile()
-        if self.cfg.values["output"]["snapshots"]:
-            self._snapshot(sim, k)
-        if self.writes:
-            g = self.f["profile"]
-            if self.root:
-                g["x"][:] = x
-                g["time"][k] = sim.t
-                g["step"][k] = sim.step
-                g["vy"][k] = vy
-                g["count"][k] = counts
-                if exact is not None:
-                    g["vy_exact"][k] = exact
-                g["err_max"][k] = emax
-                g["err_rms"][k] = erms
-            g.attrs["written"] = k + 1
-            self.f.flush()
+                if self.root:
+                    d[...] = arr
+        if snapshot:
+            self._particles(sim, f)
+        # No try/finally: closing is collective, and a rank that failed mid-write
+        # must reach MPI_Abort instead of waiting in the close for the others.
+        if f is not None:
+            f.close()
+        comm.Barrier()
+        if self.root:
+            os.replace(part, final)
+        self.written.append((name, sim.t, bool(snapshot)))
         if self.root:
             self._write_xdmf()
+        self.index += 1
+        comm.Barrier()
+        return final
 
-    def _snapshot(self, sim, k):
-        ps, comm, N, dim = sim.ps, self.comm, self.N, self.dim
+    def _particles(self, sim, f):
+        ps, comm, N = sim.ps, self.comm, self.N
         n = ps.n_own
         fields = {
             "id": (ps.gid[:n], "i8", "1"),
             "kind": (ps.kind[:n].astype(np.int8), "i1", "1"),
+            "mass": (ps.mass[:n], "f8", "kg/m"),
             "position": (ps.pos[:n], "f8", "m"),
             "velocity": (ps.vel[:n], "f8", "m/s"),
             "theta": (ps.theta[:n], "f8", "1"),
         }
-        name = f"snapshots/{k:04d}"
         if self.parallel:
             off = np.zeros(1, np.int64)
             comm.Exscan(np.array([n], np.int64), off)
             off = int(off[0]) if comm.rank > 0 else 0
-            grp = self.f.create_group(name)
+            grp = f.create_group("particles")
             for key, (arr, dt, unit) in fields.items():
                 d = grp.create_dataset(key, (N,) + arr.shape[1:], dtype=dt)
                 d.attrs["units"] = unit
@@ -123,7 +140,7 @@ class Output:
         else:
             counts = np.zeros(comm.size, np.int64)
             comm.Allgather(np.array([n], np.int64), counts)
-            grp = self.f.create_group(name) if self.root else None
+            grp = f.create_group("particles") if self.root else None
             for key, (arr, dt, unit) in fields.items():
                 arr = np.ascontiguousarray(arr)
                 width = int(np.prod(arr.shape[1:], dtype=np.int64))
@@ -133,71 +150,106 @@ class Output:
                     recv = [full, counts * width]
                 comm.Gatherv(arr, recv, root=0)
                 if self.root:
-                    d = grp.create_dataset(key, data=full)
-                    d.attrs["units"] = unit
-        if self.writes:
-            grp.attrs["time"] = sim.t
-            grp.attrs["step"] = sim.step
-        self._snaps.append((name, sim.t))
+                    grp.create_dataset(key, data=full).attrs["units"] = unit
 
     def _write_xdmf(self):
         """Rewrite the ParaView sidecar: one point set per snapshot, in time order."""
-        h5name = os.path.basename(self.path)
-        N, dim = self.N, self.dim
+        N, dim = self.N, self.cfg.dim
         geom = "XY" if dim == 2 else "XYZ"
 
-        def item(path, dims, ntype="Float", prec=8):
+        def item(fname, path, dims, ntype="Float", prec=8):
             return (f'<DataItem Dimensions="{dims}" NumberType="{ntype}" Precision="{prec}" '
-                    f'Format="HDF">{h5name}:/{path}</DataItem>')
-
-        def column(path, c):
-            return (f'<DataItem ItemType="HyperSlab" Dimensions="{N} 1">'
-                    f'<DataItem Dimensions="3 2" Format="XML">0 {c} 1 1 {N} 1</DataItem>'
-                    f'{item(path, f"{N} {dim}")}</DataItem>')
+                    f'Format="HDF">{fname}:/particles/{path}</DataItem>')
 
         grids = []
-        for name, t in self._snaps:
-            attrs = [f'<Attribute Name="id" Center="Node">{item(name + "/id", N, "Int")}</Attribute>',
-                     f'<Attribute Name="kind" Center="Node">{item(name + "/kind", N, "Char", 1)}</Attribute>',
-                     f'<Attribute Name="theta" Center="Node">{item(name + "/theta", N)}</Attribute>']
+        for fname, t, snap in self.written:
+            if not snap:
+                continue
+            attrs = [f'<Attribute Name="id" Center="Node">{item(fname, "id", N, "Int")}</Attribute>',
+                     f'<Attribute Name="kind" Center="Node">{item(fname, "kind", N, "Char", 1)}</Attribute>',
+                     f'<Attribute Name="theta" Center="Node">{item(fname, "theta", N)}</Attribute>']
             for c, comp in enumerate("xyz"[:dim]):
-                attrs.append(f'<Attribute Name="v{comp}" Center="Node">{column(name + "/velocity", c)}</Attribute>')
+                attrs.append(
+                    f'<Attribute Name="v{comp}" Center="Node"><DataItem ItemType="HyperSlab" Dimensions="{N} 1">'
+                    f'<DataItem Dimensions="3 2" Format="XML">0 {c} 1 1 {N} 1</DataItem>'
+                    f'{item(fname, "velocity", f"{N} {dim}")}</DataItem></Attribute>')
             grids.append(
-                f'<Grid Name="{name}" GridType="Uniform"><Time Value="{t!r}"/>'
+                f'<Grid Name="{fname}" GridType="Uniform"><Time Value="{t!r}"/>'
                 f'<Topology TopologyType="Polyvertex" NumberOfElements="{N}"/>'
-                f'<Geometry GeometryType="{geom}">{item(name + "/position", f"{N} {dim}")}</Geometry>'
+                f'<Geometry GeometryType="{geom}">{item(fname, "position", f"{N} {dim}")}</Geometry>'
                 + "".join(attrs) + "</Grid>")
         text = ('<?xml version="1.0" ?>\n<Xdmf Version="3.0"><Domain>'
                 '<Grid Name="particles" GridType="Collection" CollectionType="Temporal">\n'
                 + "\n".join(grids) + "\n</Grid></Domain></Xdmf>\n")
-        xdmf = os.path.splitext(self.path)[0] + ".xdmf"
-        tmp = xdmf + ".tmp"
-        with open(tmp, "w") as fh:
+        xdmf = os.path.join(self.dir, self.stem + ".xdmf")
+        with open(xdmf + ".part", "w") as fh:
             fh.write(text)
-        os.replace(tmp, xdmf)
+        os.replace(xdmf + ".part", xdmf)
 
-    def close(self):
-        if self.f is not None:
-            self.f.close()
-            self.f = None
+
+# ---- reading (serial h5py, no MPI needed) ------------------------------------------
+def output_files(path):
+    """Complete output files of a run: ``path`` is a directory or one output file."""
+    if os.path.isdir(path):
+        files = [f for f in glob.glob(os.path.join(path, "*_[0-9][0-9][0-9][0-9].h5"))]
+        stems = {re.sub(r"_\d{4}\.h5$", "", os.path.basename(f)) for f in files}
+        if len(stems) > 1:
+            raise ValueError(f"{path} holds outputs of several runs ({', '.join(sorted(stems))}); name one file")
+        return sorted(files)
+    if os.path.isfile(path):
+        return [path]
+    raise FileNotFoundError(path)
 
 
 def read_profile(path):
-    """The /profile group of an output file as a dict of arrays (complete outputs only)."""
+    """Profiles of all complete outputs of a run (sorted by time) as a dict of arrays."""
+    files = output_files(path)
+    rows = []
+    for fn in files:
+        with h5py.File(fn, "r") as f:
+            g = f["profile"]
+            rows.append({"time": f.attrs["time"], "step": f.attrs["step"], "x": g["x"][()],
+                         "vy": g["vy"][()], "count": g["count"][()], "vy_exact": g["vy_exact"][()],
+                         "err_max": g.attrs["err_max"], "err_rms": g.attrs["err_rms"],
+                         "attrs": dict(f.attrs)})
+    rows.sort(key=lambda r: r["time"])
+    if not rows:
+        raise FileNotFoundError(f"no complete output in {path}")
+    out = {k: np.array([r[k] for r in rows]) for k in ("time", "step", "vy", "count", "vy_exact",
+                                                        "err_max", "err_rms")}
+    out["x"] = rows[0]["x"]
+    out["attrs"] = rows[-1]["attrs"]
+    return out
+
+
+def read_snapshot(path):
+    """Particles of one output file, sorted by id, with the file's attributes."""
     with h5py.File(path, "r") as f:
-        g = f["profile"]
-        n = int(g.attrs["written"])
-        out = {k: g[k][()] if k == "x" else g[k][:n] for k in g}
+        g = f["particles"]
+        order = np.argsort(g["id"][()], kind="stable")
+        out = {key: g[key][()][order] for key in PARTICLE_FIELDS}
         out["attrs"] = dict(f.attrs)
     return out
 
 
-def read_snapshot(path, k=-1):
-    """Particles of snapshot k (default: the last), sorted by id."""
+def last_snapshot(path):
+    """The latest complete output file of a run that holds particles (a restart point)."""
+    best = None
+    for fn in output_files(path):
+        with h5py.File(fn, "r") as f:
+            if "particles" in f and (best is None or f.attrs["time"] > best[0]):
+                best = (f.attrs["time"], fn)
+    if best is None:
+        raise FileNotFoundError(f"no output with particles in {path}")
+    return best[1]
+
+
+def read_state(path):
+    """Everything a restart needs from one output file: particles (file order) and attributes."""
     with h5py.File(path, "r") as f:
-        names = sorted(f["snapshots"])
-        g = f["snapshots"][names[k]]
-        order = np.argsort(g["id"][()])
-        out = {key: g[key][()][order] for key in g}
-        out["time"] = g.attrs["time"]
+        if "particles" not in f:
+            raise ValueError(f"{path} holds no particles (output.snapshots was false)")
+        g = f["particles"]
+        out = {key: g[key][()] for key in PARTICLE_FIELDS}
+        out["attrs"] = dict(f.attrs)
     return out

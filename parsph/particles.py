@@ -6,6 +6,7 @@ Arrays have spare capacity so that halo exchange and migration rarely
 allocate.
 """
 import numpy as np
+from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 KIND_NAMES = {FLUID: "fluid", WALL: "fixed wall", MOVING_WALL: "moving wall"}
@@ -64,31 +65,61 @@ class Particles:
 
     ycol = 4  # column of the y coordinate in a packed row
 
-    def pack(self, idx, out):
-        """Write particles ``idx`` as rows [gid, kind, mass, pos, vel] into ``out``."""
-        d = self.dim
-        k = len(idx)
-        out[:k, 0] = self.gid[idx]
-        out[:k, 1] = self.kind[idx]
-        out[:k, 2] = self.mass[idx]
-        out[:k, 3:3 + d] = self.pos[idx]
-        out[:k, 3 + d:3 + 2 * d] = self.vel[idx]
+    def pack(self, idx, k, out):
+        """Write particles ``idx[:k]`` as rows [gid, kind, mass, pos, vel] into ``out``."""
+        _pack(self.gid, self.kind, self.mass, self.pos, self.vel, idx, k, out)
 
     def unpack(self, rows, start):
         """Store ``rows`` as particles ``start .. start+len(rows)-1``."""
-        d = self.dim
-        stop = start + len(rows)
-        self.gid[start:stop] = rows[:, 0]
-        self.kind[start:stop] = rows[:, 1]
-        self.mass[start:stop] = rows[:, 2]
-        self.pos[start:stop] = rows[:, 3:3 + d]
-        self.vel[start:stop] = rows[:, 3 + d:3 + 2 * d]
+        _unpack(rows, start, self.gid, self.kind, self.mass, self.pos, self.vel)
 
-    def keep_owned(self, mask):
-        """Drop the owned particles where ``mask`` is False (order kept)."""
-        keep = np.flatnonzero(mask)
-        k = len(keep)
-        for name in STATE_FIELDS:
-            arr = getattr(self, name)
-            arr[:k] = arr[keep]
-        self.n_own = self.n = k
+    def keep_owned(self, gone, k):
+        """Drop the owned particles ``gone[:k]`` (ascending indices), keeping the others' order."""
+        self.n_own = self.n = _compact(gone, k, self.n_own, self.gid, self.kind, self.mass, self.pos, self.vel)
+
+
+@njit(cache=True)
+def _pack(gid, kind, mass, pos, vel, idx, k, out):
+    d = pos.shape[1]
+    for r in range(k):
+        i = idx[r]
+        out[r, 0] = gid[i]
+        out[r, 1] = kind[i]
+        out[r, 2] = mass[i]
+        for c in range(d):
+            out[r, 3 + c] = pos[i, c]
+            out[r, 3 + d + c] = vel[i, c]
+
+
+@njit(cache=True)
+def _unpack(rows, start, gid, kind, mass, pos, vel):
+    d = pos.shape[1]
+    for r in range(rows.shape[0]):
+        i = start + r
+        gid[i] = np.int64(rows[r, 0])
+        kind[i] = np.int64(rows[r, 1])
+        mass[i] = rows[r, 2]
+        for c in range(d):
+            pos[i, c] = rows[r, 3 + c]
+            vel[i, c] = rows[r, 3 + d + c]
+
+
+@njit(cache=True)
+def _compact(gone, k, n, gid, kind, mass, pos, vel):
+    """Remove indices gone[:k] (ascending) from 0..n-1 in place; return the new count."""
+    d = pos.shape[1]
+    w = 0
+    g = 0
+    for i in range(n):
+        if g < k and gone[g] == i:
+            g += 1
+            continue
+        if w != i:
+            gid[w] = gid[i]
+            kind[w] = kind[i]
+            mass[w] = mass[i]
+            for c in range(d):
+                pos[w, c] = pos[i, c]
+                vel[w, c] = vel[i, c]
+        w += 1
+    return w

@@ -2,7 +2,7 @@
 
 One step (state at t_n -> t_{n+1}):
   halo exchange -> cell list -> density Eq. (3) -> halo rho -> theta
-  -> momentum Eq. (5) -> [output, checks] -> integrate Eqs. (6)-(7) -> migrate
+  -> momentum Eq. (5) -> [output, checks] -> integrate -> migrate
 
 The communicator is passed in; one rank is the same code path (the rank is
 its own neighbour across the periodic boundary).
@@ -15,21 +15,30 @@ import numpy as np
 from mpi4py import MPI
 
 from . import equations, integrate, neighbours
+from .closures import modulus
+from .config import dt_limits
 from .decomposition import SlabRing
-from .kernels import get_kernel
+from .kernels import get_kernel, lattice_sum
 from .particles import FLUID, Particles
 from .profile import bin_centres, bin_sums, errors
 from .scenes import get_scene
 
 PHASES = ("halo", "neighbours", "density", "forces", "integrate", "migrate", "output", "checks")
+CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
+          3: "volume fraction out of range", 4: "kinetic energy above what the walls can inject"}
 
 
 class GuardError(RuntimeError):
     """A run-time check failed on some rank; raised on every rank alike."""
 
 
+class Interrupted(RuntimeError):
+    """A stop was requested (signal); raised on every rank alike after the last output."""
+
+
 class Simulation:
-    def __init__(self, cfg, comm):
+    def __init__(self, cfg, comm, state=None):
+        """Set up the run on ``comm``; ``state`` (from output.read_state) continues a run."""
         self.cfg = cfg
         self.comm = comm
         self.scene = get_scene(cfg.values["scene"]["name"])
@@ -37,65 +46,133 @@ class Simulation:
         self.kernel = get_kernel(cfg.kernel, cfg.dim)
         self.norm = self.kernel.norm(cfg.h, cfg.dim)
         self.support = self.kernel.support * cfg.h
-        self.ring = SlabRing(comm, cfg.Ly, self.support)
-        self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
-        self.rho_wall = cfg.rho_s * cfg.theta0
+        # The midpoint state is not migrated: a skin covers its half-step drift
+        # (the CFL limit keeps that below h/8).
+        self.halo = self.support + (0.25 * cfg.h if cfg.integrator == "midpoint" else 0.0)
+        self.ring = SlabRing(comm, cfg.Ly, self.halo)
+        if state is None:
+            self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
+        else:
+            y = state["position"][:, 1]
+            mine = (y >= self.ring.lo) & (y < self.ring.hi)
+            self.ps = Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
+                                            state["mass"][mine], state["position"][mine],
+                                            state["velocity"][mine])
+        # Walls hold the density that Eq. (3) gives inside the initial lattice,
+        # so that the undisturbed lattice is in equilibrium next to a wall.
+        self.rho_wall = cfg.mass * lattice_sum(self.kernel, cfg.h, cfg.spacing)
         self.ps.rho[:self.ps.n] = self.rho_wall
         self.x0 = -cfg.layers * cfg.dx - self.support
-        self.g = np.array(cfg.g if self.terms.body_force else (0.0,) * cfg.dim, dtype=float)
-        self.step = 0
+        self.g = np.zeros(3)
+        if self.terms.body_force:
+            self.g[:cfg.dim] = cfg.g
+        self.step = 0 if state is None else int(state["attrs"]["step"])
+        self.t = 0.0 if state is None else float(state["attrs"]["time"])
+        self.dt = cfg.dt if state is None else float(state["attrs"]["dt"])
         self.timers = defaultdict(float)
-        self._cell_xy = np.zeros((0, 3), np.int64)
-        self._order = np.zeros(0, np.int64)
+        self._flag = np.zeros(2, np.int64)
+        self._flag_all = np.zeros(2, np.int64)
+        self._saved = (np.zeros((0, cfg.dim)), np.zeros((0, cfg.dim)))
+        self.work = neighbours.Workspace()
         self.n_total = comm.allreduce(self.ps.n_own)
         self.nbins = cfg.Nx
         self._sums = np.zeros(self.nbins)
         self._counts = np.zeros(self.nbins)
 
-    @property
-    def t(self):
-        return self.step * self.cfg.dt
 
     # ---- one evaluation of the right-hand side -------------------------------
     def compute_rates(self):
         """Density, theta and accelerations of the owned particles at the current state."""
-        cfg, ps, T = self.cfg, self.ps, self.timers
+        cfg, ps, T, W = self.cfg, self.ps, self.timers, self.work
         t0 = time.perf_counter()
         self.ring.exchange_halo(ps)
         t1 = time.perf_counter()
         n = ps.n
-        if self._order.shape[0] < n:
-            self._order = np.zeros(ps.capacity, np.int64)
-            self._cell_xy = np.zeros((ps.capacity, 3), np.int64)
-        start, ncx, ncy, ncz = neighbours.build_cells(ps.pos, ps.gid, n, self.x0, self.support,
-                                                      self._cell_xy, self._order)
-        cells = (self._cell_xy, start, self._order, ncx, ncy, ncz)
+        W.ensure(n)
+        start, ncx, ncy, ncz = neighbours.sort_into_cells(
+            ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, ps.n_own, self.x0, self.support,
+            W.order, W.cell_of, W.tmp, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.owned)
         t2 = time.perf_counter()
-        equations.density(ps.pos, ps.mass, ps.kind, ps.n_own, *cells, cfg.h, self.norm,
-                          self.kernel.w, self.rho_wall, ps.rho)
-        self.ring.exchange_halo_field(ps, "rho")
-        equations.volume_fraction(ps.rho, n, cfg.rho_s, cfg.G_a, ps.theta, ps.half_G)
+        while True:
+            pairs = equations.density(n, W.sx, W.sy, W.sz, W.sm, W.skind, W.owned, W.cell_of, start,
+                                      ncx, ncy, ncz, cfg.h, self.norm, self.kernel.kid,
+                                      self.rho_wall, W.srho, W.nbr_start, W.nbr_j, W.nbr_f)
+            if pairs <= W.nbr_j.shape[0]:
+                break
+            W.ensure_pairs(pairs)
+        neighbours.scatter_owned(W.srho, W.order, W.owned, n, ps.rho)
         t3 = time.perf_counter()
-        equations.momentum(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.half_G, ps.n_own,
-                           *cells, cfg.h, self.norm, self.kernel.dwdr, cfg.rho_s, cfg.G_b, cfg.k,
-                           cfg.L, cfg.beta_max, self.g, self.terms.pressure, self.terms.viscosity,
-                           ps.acc)
+        self.ring.exchange_halo_field(ps, "rho")
         t4 = time.perf_counter()
-        T["halo"] += t1 - t0
+        neighbours.gather(ps.rho, W.order, n, W.srho)
+        equations.volume_fraction(W.srho, n, cfg.rho_s, cfg.G_a, W.stheta, W.shalf_G)
+        equations.momentum(n, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.srho, W.stheta,
+                           W.shalf_G, W.owned, W.nbr_start, W.nbr_j, W.nbr_f, cfg.rho_s, cfg.G_b, cfg.k,
+                           cfg.L, cfg.beta_max, self.g, self.terms.pressure, self.terms.viscosity,
+                           cfg.get("numerics.viscosity_form") == "symmetric", W.sax, W.say, W.saz)
+        neighbours.scatter_owned_vec(W.sax, W.say, W.saz, W.order, W.owned, n, ps.acc)
+        neighbours.scatter_owned(W.stheta, W.order, W.owned, n, ps.theta)
+        t5 = time.perf_counter()
+        T["halo"] += t1 - t0 + t4 - t3
         T["neighbours"] += t2 - t1
         T["density"] += t3 - t2
-        T["forces"] += t4 - t3
+        T["forces"] += t5 - t4
 
-    def advance(self):
-        """Eqs. (6)-(7), then hand particles that left the slab to their new owner."""
-        ps, T = self.ps, self.timers
+    def advance(self, dt, stop_requested=None):
+        """One step of the chosen integrator, then hand particles that left the slab to their owner.
+
+        Returns whether any rank was asked to stop (``stop_requested``). One
+        small all-reduce per step carries that and the integrator's count of
+        non-finite particles; a blow-up raises GuardError on every rank before
+        the next neighbour search.
+        """
+        ps, T, cfg = self.ps, self.timers, self.cfg
         t0 = time.perf_counter()
-        integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, self.cfg.dt, self.cfg.Ly)
+        if cfg.integrator == "paper":
+            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, cfg.Ly)
+        else:
+            if self._saved[0].shape[0] < ps.n_own:
+                self._saved = (np.zeros((ps.capacity, cfg.dim)), np.zeros((ps.capacity, cfg.dim)))
+            pos0, vel0 = self._saved
+            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, pos0, vel0)
+            T["integrate"] += time.perf_counter() - t0
+            self._agree(bad, False)
+            self.compute_rates()
+            t0 = time.perf_counter()
+            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, pos0, vel0, cfg.Ly)
+        self.step += 1
+        self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         t1 = time.perf_counter()
+        stop = self._agree(bad, stop_requested is not None and stop_requested())
         self.ring.migrate(ps)
         T["integrate"] += t1 - t0
         T["migrate"] += time.perf_counter() - t1
-        self.step += 1
+        return stop
+
+    def _agree(self, nonfinite, stop):
+        """All-reduce (non-finite count, stop flag); run the checks everywhere on a blow-up."""
+        self._flag[0] = nonfinite
+        self._flag[1] = 1 if stop else 0
+        self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
+        if self._flag_all[0]:
+            self.check()  # raises GuardError on every rank
+        return bool(self._flag_all[1])
+
+    def stable_dt(self):
+        """The largest stable step for the current state (global minimum over ranks)."""
+        ps, cfg = self.ps, self.cfg
+        n = ps.n_own
+        fluid = ps.kind[:n] == FLUID
+        local = np.array([
+            np.abs(ps.vel[:n]).max(initial=0.0) * math.sqrt(cfg.dim),
+            ps.theta[:n][fluid].max(initial=cfg.theta0),
+            np.sqrt((ps.acc[:n] ** 2).sum(axis=1)).max(initial=0.0),
+        ])
+        glob = np.empty(3)
+        self.comm.Allreduce(local, glob, op=MPI.MAX)
+        vmax, theta_max, amax = glob
+        lim = dt_limits(cfg.h, min(theta_max, 0.999), cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax)
+        return min(lim.values())
 
     # ---- reductions ------------------------------------------------------------
     def profile(self):
@@ -118,55 +195,98 @@ class Simulation:
         return x, vy, counts, exact, err
 
     def check(self):
-        """Collective run-time checks: non-finite state, fluid particles through a wall."""
+        """Collective run-time checks (CHECKS); on failure every rank raises GuardError."""
         ps, cfg = self.ps, self.cfg
         t0 = time.perf_counter()
         n = ps.n_own
-        report = np.zeros(4)  # code, gid, x, y
-        bad = ~np.isfinite(ps.pos[:n]).all(axis=1) | ~np.isfinite(ps.vel[:n]).all(axis=1)
         fluid = ps.kind[:n] == FLUID
-        through = fluid & ((ps.pos[:n, 0] < 0.0) | (ps.pos[:n, 0] > cfg.L))
-        for code, mask in ((1, bad), (2, through)):
-            if mask.any():
+        report = np.zeros(5)  # code, gid, x, y, value
+        bad = ~(np.isfinite(ps.pos[:n]).all(axis=1) & np.isfinite(ps.vel[:n]).all(axis=1)
+                & np.isfinite(ps.acc[:n]).all(axis=1))
+        through = fluid & ((ps.pos[:n, 0] < 0.0) | (ps.pos[:n, 0] > cfg.L)) if self.scene.walls else None
+        dev = np.where(fluid, np.abs(ps.theta[:n] - cfg.theta0), 0.0)
+        theta_bad = ~(dev <= cfg.get("checks.theta_change") * cfg.theta0) & fluid
+        for code, mask in ((1, bad), (2, through), (3, theta_bad)):
+            if mask is not None and mask.any():
                 k = int(np.argmax(mask))
-                report[:] = code, ps.gid[k], ps.pos[k, 0], ps.pos[k, 1]
+                report[:] = code, ps.gid[k], ps.pos[k, 0], ps.pos[k, 1], ps.theta[k]
                 break
-        reports = np.zeros((self.comm.size, 4))
+        energy = np.array([0.5 * (ps.mass[:n][fluid] * (ps.vel[:n][fluid] ** 2).sum(axis=1)).sum(),
+                           ps.mass[:n][fluid].sum()])
+        reports = np.zeros((self.comm.size, 5))
         self.comm.Allgather(report, reports)
+        totals = np.zeros(2)
+        self.comm.Allreduce(energy, totals, op=MPI.SUM)
         self.timers["checks"] += time.perf_counter() - t0
         failed = reports[reports[:, 0] > 0]
+        where = f"at step {self.step}, t = {self.t:.6g} s"
         if len(failed):
-            code, gid, x, y = failed[0]
-            what = {1: "non-finite position or velocity", 2: "fluid particle crossed a wall plane"}[int(code)]
-            raise GuardError(f"check failed: {what} at step {self.step}, t = {self.t:.6g} s: "
-                             f"particle {int(gid)} at x = {x:.6g} m, y = {y:.6g} m")
+            code, gid, x, y, value = failed[0]
+            extra = f" (theta = {value:.4g}, theta0 = {cfg.theta0:g})" if code == 3 else ""
+            raise GuardError(f"check failed: {CHECKS[int(code)]} {where}: particle {int(gid)} "
+                             f"at x = {x:.6g} m, y = {y:.6g} m{extra}")
+        bound = self.scene.max_kinetic_energy(cfg, totals[1], self.t)
+        if cfg.get("checks.energy") and not totals[0] <= bound:
+            raise GuardError(f"check failed: {CHECKS[4]} {where}: {totals[0]:.4g} J/m > {bound:.4g} J/m")
 
     # ---- the loop ----------------------------------------------------------------
-    def run(self, output=None, progress=None):
-        """Advance to t_end; ``output(sim, k)`` at output step k, ``progress(sim, rate, eta)``."""
+    def _output_due(self, t_out):
+        if not self.cfg.dt_auto:
+            return self.step == round(t_out / self.cfg.dt)
+        return self.t >= t_out * (1 - 1e-12) - 1e-300
+
+    def run(self, output=None, progress=None, stop_requested=None):
+        """Advance to t_end; ``output(sim)`` at each output time, ``progress(sim, rate, eta)``.
+
+        ``stop_requested()`` is polled every step; when it is true on any rank
+        the run writes a final output with particles and raises Interrupted.
+        """
         cfg = self.cfg
-        outs = {s: k for k, s in enumerate(cfg.output_steps)}
-        check_every = cfg.values["output"]["check_every"]
-        interval = cfg.values["output"]["progress_interval"]
+        pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
+        if self.step > 0:  # restart: the restart state itself was output already
+            pending = [t for t in pending if not self._output_due(t)]
+        check_every = cfg.get("checks.every")
+        interval = cfg.get("output.progress_interval")
         t_start = last = time.perf_counter()
-        step0 = self.step
+        step0, tsim0 = self.step, self.t
+        stop = False
         while True:
             self.compute_rates()
-            if self.step in outs and output is not None:
+            while pending and self._output_due(pending[0]) and output is not None:
                 t0 = time.perf_counter()
-                output(self, outs[self.step])
+                output(self)
+                pending.pop(0)
                 self.timers["output"] += time.perf_counter() - t0
-            if self.step % check_every == 0 or self.step == cfg.nsteps:
+            done = self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
+            if self.step % check_every == 0 or done:
                 self.check()
-            if self.step >= cfg.nsteps:
+            if done:
                 break
-            self.advance()
+            if stop:
+                if output is not None:
+                    output(self, snapshot=True)
+                raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; "
+                                  f"the last output is a restart point")
+            if cfg.dt_auto:
+                dt = cfg.get("numerics.dt_safety") * self.stable_dt()
+                target = min(pending[0], cfg.t_end) if pending else cfg.t_end
+                remaining = target - self.t
+                land = remaining <= dt
+                if land:
+                    dt = remaining
+                elif remaining < 2 * dt:  # two equal steps, not a sliver
+                    dt = 0.5 * remaining
+                self.dt = dt
+                stop = self.advance(dt, stop_requested)
+                if land:
+                    self.t = target
+            else:
+                stop = self.advance(self.dt, stop_requested)
             now = time.perf_counter()
             if progress is not None and interval > 0 and now - last >= interval:
                 last = now
-                done = self.step - step0
-                rate = self.n_total * done / (now - t_start)
-                eta = (cfg.nsteps - self.step) * (now - t_start) / done
+                rate = self.n_total * (self.step - step0) / (now - t_start)
+                eta = (cfg.t_end - self.t) * (now - t_start) / max(self.t - tsim0, 1e-300)
                 progress(self, rate, eta)
         self.wall_time = time.perf_counter() - t_start
         return self

@@ -4,6 +4,7 @@ A scene module defines a :class:`Scene` instance named ``SCENE``. The solver
 asks it for the particles of one slab and for the terms of Eq. (5) it needs.
 """
 from dataclasses import dataclass
+import math
 from typing import Callable, Optional
 
 
@@ -25,6 +26,10 @@ class Scene:
     exact_profile: Optional[Callable] = None
     # wall velocity scale used to normalise errors
     velocity_scale: Callable = lambda cfg: 1.0
+    # max_kinetic_energy(cfg, fluid_mass, t): bound on the fluid's kinetic energy [J/m]
+    max_kinetic_energy: Callable = lambda cfg, mass, t: math.inf
+    # whether fluid is confined between plates at x = 0 and x = L
+    walls: bool = True
 
 
 def get_scene(name):

@@ -42,5 +42,11 @@ def exact(cfg, x, t):
     return couette_velocity(x, t, cfg.nu, cfg.L, cfg.V_w)
 
 
+def max_kinetic_energy(cfg, fluid_mass, t):
+    """Viscous flow driven by the plates obeys a maximum principle: |v| <= |V_w|."""
+    return 0.5 * fluid_mass * cfg.V_w ** 2
+
+
 SCENE = Scene(name="couette", terms=Terms(pressure=True, viscosity=True, body_force=False),
-              particles=lattice, exact_profile=exact, velocity_scale=lambda cfg: abs(cfg.V_w) or 1.0)
+              particles=lattice, exact_profile=exact, velocity_scale=lambda cfg: abs(cfg.V_w) or 1.0,
+              max_kinetic_energy=max_kinetic_energy, walls=True)
