@@ -152,6 +152,7 @@ def _run(comm, args, say, signals):
 
     cfg, state, first = _agree(comm, prepare)
     _agree(comm, writable)
+    _agree(comm, lambda: _fits_in_memory(comm, cfg))
     if args.force and comm.rank == 0:
         for f, k in _existing(out_dir, stem):
             if k >= first:
@@ -180,6 +181,19 @@ def _run(comm, args, say, signals):
     if comm.rank == 0 and output_files(out_dir):
         print_table(out_dir)
     return 0
+
+
+def _fits_in_memory(comm, cfg):
+    """Refuse a run whose particles cannot fit in the memory of the nodes in use."""
+    from mpi4py import MPI
+    from .config import BYTES_PER_PARTICLE, ConfigError
+    mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    hosts = dict(comm.allgather((MPI.Get_processor_name(), mem)))
+    have = sum(hosts.values())
+    need = cfg.n_particles * BYTES_PER_PARTICLE
+    if need > 0.8 * have:
+        raise ConfigError("numerics.Nx", f"{cfg.n_particles:,} particles need about {need / 1e9:.3g} GB, "
+                          f"more than 80% of the {have / 1e9:.3g} GB of memory on {len(hosts)} node(s)")
 
 
 def _existing(out_dir, stem):

@@ -13,6 +13,9 @@ from . import closures
 from .integrate import INTEGRATORS
 
 REQUIRED = object()
+# Upper bound of resident memory per particle [bytes] (measured: README, "Performance"),
+# used to refuse runs that cannot fit before anything is allocated.
+BYTES_PER_PARTICLE = 1024
 
 
 class ConfigError(Exception):
@@ -220,6 +223,11 @@ class RunConfig:
     def nu(self):
         """Kinematic viscosity k theta0 / rho_s (Eq. (5) in a uniform state)."""
         return self.k * self.theta0 / self.rho_s
+
+    @property
+    def n_particles(self):
+        """Fluid and wall particles of the lattice."""
+        return (self.Nx + 2 * self.layers) * self.Ny
 
     @property
     def spacing(self):

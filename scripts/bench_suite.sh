@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# The benchmark suite of README "Performance": the paper size (N_x = 50),
+# N_x = 200 and N_x = 400 on 1 and 2 ranks, plus the machine's ceiling for two
+# busy processes (two independent one-rank runs at once against one alone).
+#   bash scripts/bench_suite.sh [OUTDIR]     (default results/)
+# Writes OUTDIR/bench.json (one record per run) and OUTDIR/bench.md (tables).
+set -euo pipefail
+ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$ROOT"
+bash scripts/setup.sh
+source scripts/mpienv.sh
+OUT=${1:-results}
+mkdir -p "$OUT"
+J=$OUT/bench.json
+rm -f "$J"
+PY=.venv/bin/python
+B=${PARSPH_BENCH_BUDGET:-6}
+$PY scripts/bench.py --nx 50 200 400 --budget "$B" --json "$J" --tag "1 rank"
+mpirun -n 2 $PARSPH_MPIRUN_FLAGS $PY scripts/bench.py --nx 50 200 400 --budget "$B" --json "$J" --tag "2 ranks"
+$PY scripts/bench.py --nx 200 --budget "$B" --json "$J" --tag "alone"
+$PY scripts/bench.py --nx 200 --budget "$B" --json "$J" --tag "pair-a" &
+$PY scripts/bench.py --nx 200 --budget "$B" --json "$J" --tag "pair-b" &
+wait
+$PY scripts/bench_report.py "$J" | tee "$OUT/bench.md"
