@@ -52,3 +52,75 @@ def couette_velocity_images(x, t, nu, L, V_w, nimg=50):
     for k in range(nimg):
         v += erfc(((2 * k + 1) * L - x) / s) - erfc(((2 * k + 1) * L + x) / s)
     return V_w * v
+
+
+def poiseuille_velocity(x, t, nu, L, F, tol=1e-17):
+    """Start-up of plane Poiseuille flow between fixed plates driven by a body force F along y.
+
+    dv/dt = nu v'' + F, v(0) = v(L) = 0, v(x, 0) = 0 (Morris, Fox & Zhu 1997):
+
+        v = F x (L - x) / (2 nu) - sum_{n odd} 4 F L^2 / (nu pi^3 n^3) sin(n pi x / L) exp(-n^2 pi^2 nu t / L^2)
+    """
+    x = np.asarray(x, dtype=float)
+    v = F * x * (L - x) / (2.0 * nu)
+    if t == 0:
+        return np.zeros_like(x)
+    a = math.pi ** 2 * nu * t / L ** 2
+    n = 1
+    while True:
+        amp = 4.0 * F * L ** 2 / (nu * math.pi ** 3 * n ** 3) * math.exp(-n * n * a)
+        v = v - amp * np.sin(n * math.pi * x / L)
+        if amp < tol * max(abs(F) * L ** 2 / nu, 1e-300) and n > 1:
+            return v
+        n += 2
+
+
+def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=4000, form="closure"):
+    """Volume fraction of a granular column at rest between a floor (x = 0) and a lid (x = L).
+
+    Hydrostatic balance with grad p_s = G(theta) grad theta and gravity g (> 0)
+    along -x:  G(theta) dtheta/dx = -rho_s theta g,  with the mass fixed:
+    int_0^L theta dx = theta0 L. Integrated with RK4 from the floor value, which
+    is found by bisection on the mass. Raises ValueError if the column would
+    not reach the lid (a free surface: theta -> 0 below x = L).
+
+    ``form="paper"`` gives instead the balance that the paper's pressure term
+    of Eq. (5) converges to: with G taken at the pair mean it discretises
+    grad(G theta) = G (1 + G_a ln(10) theta) grad theta, a stiffer column.
+    """
+    stiff = G_a * math.log(10.0) if form == "paper" else 0.0
+
+    def rhs(th):
+        return -rho_s * g * th / (10.0 ** (G_a * th + G_b) * (1.0 + stiff * th))
+
+    def column(theta_b):
+        xs = np.linspace(0.0, L, steps + 1)
+        th = np.empty_like(xs)
+        th[0] = theta_b
+        dx = L / steps
+        for i in range(steps):
+            t = th[i]
+            k1 = rhs(t)
+            k2 = rhs(t + 0.5 * dx * k1)
+            k3 = rhs(t + 0.5 * dx * k2)
+            k4 = rhs(t + dx * k3)
+            th[i + 1] = t + dx / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return xs, th
+
+    def mass(theta_b):
+        xs, th = column(theta_b)
+        return np.sum(0.5 * (th[1:] + th[:-1]) * np.diff(xs))
+
+    lo, hi = theta0, 1.0
+    if mass(hi) < theta0 * L:
+        raise ValueError("no equilibrium below theta = 1")
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        if mass(mid) < theta0 * L:
+            lo = mid
+        else:
+            hi = mid
+    xs, th = column(0.5 * (lo + hi))
+    if th[-1] < 1e-3 * theta0:
+        raise ValueError("the column does not reach the lid (free surface)")
+    return np.interp(np.asarray(x, dtype=float), xs, th)

@@ -207,11 +207,14 @@ def print_table(path, tol=None):
     """Print the error table of a run's outputs; return the worst max error."""
     from .output import read_profile
     p = read_profile(path)
-    print(f"{'t [s]':>10} {'max |err|/V_w':>14} {'rms err/V_w':>12}")
+    field = {"vy": "v_y", "theta": "theta"}.get(p["attrs"].get("error_field", "vy"), "v_y")
+    scale = p["attrs"].get("error_scale", p["attrs"].get("V_w", 1.0))
+    print(f"errors of {field} against the reference, relative to {scale:.4g}")
+    print(f"{'t [s]':>10} {'max error':>12} {'rms error':>12}")
     worst = 0.0
     for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"]):
         flag = "" if tol is None or emax <= tol else "  > tol"
-        print(f"{t:>10.4g} {emax:>14.3e} {erms:>12.3e}{flag}")
+        print(f"{t:>10.4g} {emax:>12.3e} {erms:>12.3e}{flag}")
         worst = max(worst, emax) if emax == emax else float("nan")
     return worst
 
@@ -244,11 +247,12 @@ def cmd_plot(args):
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
     L = p["attrs"]["L"]
-    for c, t, vy, ve in zip(colors, p["time"], p["vy"], p["vy_exact"]):
-        ax.plot(p["x"] / L, ve, "-", color=c, lw=1.2)
-        ax.plot(p["x"] / L, vy, "o", color=c, ms=3, label=f"t = {t:g} s")
+    field = p["attrs"].get("error_field", "vy")
+    for c, t, sim, ref in zip(colors, p["time"], p[field], p[field + "_exact"]):
+        ax.plot(p["x"] / L, ref, "-", color=c, lw=1.2)
+        ax.plot(p["x"] / L, sim, "o", color=c, ms=3, label=f"t = {t:g} s")
     ax.set_xlabel("x / L")
-    ax.set_ylabel("v_y [m/s]")
+    ax.set_ylabel({"vy": "v_y [m/s]", "theta": "theta"}[field])
     ax.set_title("SPH (points) against the reference (lines)")
     ax.legend(fontsize=8)
     fig.tight_layout()

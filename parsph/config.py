@@ -4,13 +4,14 @@ A run file has the sections below; ``parsph run --set section.key=value``
 overrides any key. Every problem raises :class:`ConfigError` naming the key.
 The full key list with units is in README.md ("Run-file keys").
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 import math
 import tomllib
 
 from .kernels import KERNEL_NAMES, get_kernel
 from . import closures
 from .integrate import INTEGRATORS
+from .scenes import SCENE_NAMES, get_scene
 
 REQUIRED = object()
 # Upper bound of resident memory per particle [bytes] (measured: README, "Performance"),
@@ -41,12 +42,18 @@ class Key:
 
 SCHEMA = {
     "scene": {
-        "name": Key("str", "couette", choices=("couette",), doc="scene to run"),
-        "dim": Key("int", 2, choices=(2,), doc="spatial dimension"),
+        "name": Key("str", "couette", choices=SCENE_NAMES, doc="scene to run"),
+        "dim": Key("int", 2, choices=(2, 3), doc="spatial dimension (3: z periodic too)"),
+        "amplitude": Key("float", 0.01, doc="periodic_box: amplitude of the initial shear wave v_y [m/s]"),
+    },
+    "terms": {
+        "pressure": Key("bool", None, doc="the pressure term of Eq. (5) (default: as the scene declares)"),
+        "viscosity": Key("bool", None, doc="the viscous term of Eq. (5) (default: as the scene declares)"),
     },
     "domain": {
         "L": Key("float", REQUIRED, positive=True, doc="plate distance [m]"),
         "Ly": Key("float", None, positive=True, doc="periodic streamwise length [m] (default L)"),
+        "Lz": Key("float", None, positive=True, doc="periodic spanwise length in 3-D [m] (default Ly)"),
     },
     "material": {
         "rho_s": Key("float", REQUIRED, positive=True, doc="solid material density [kg/m^3]"),
@@ -71,6 +78,9 @@ SCHEMA = {
         "allow_unstable_dt": Key("bool", False, doc="run a dt above the stability limit (warns)"),
         "integrator": Key("str", "paper", choices=INTEGRATORS,
                           doc="time integrator: Eqs. (6)-(7), or explicit midpoint (second order)"),
+        "pressure_form": Key("str", "paper", choices=("paper", "consistent"),
+                             doc="Eq. (5) as printed (G at the pair mean; discretises grad(G theta)) or "
+                                 "p = G/(G_a ln 10), whose gradient is G grad theta"),
         "viscosity_form": Key("str", "paper", choices=("paper", "symmetric"),
                               doc="mu_i = k theta_i (paper) or the pair mean k (theta_i + theta_j)/2"),
     },
@@ -195,10 +205,13 @@ class RunConfig:
     dim: int
     L: float
     Ly: float
+    Lz: float
     Nx: int
     Ny: int
+    Nz: int
     dx: float
     dy: float
+    dz: float
     h: float
     layers: int
     mass: float
@@ -217,6 +230,9 @@ class RunConfig:
     output_times: tuple
     integrator: str
     g: tuple
+    scene: object = None
+    pressure: bool = True
+    viscosity: bool = True
     limits: dict = field(default_factory=dict)
 
     @property
@@ -227,16 +243,21 @@ class RunConfig:
     @property
     def n_particles(self):
         """Fluid and wall particles of the lattice."""
-        return (self.Nx + 2 * self.layers) * self.Ny
+        return (self.Nx + (2 * self.layers if self.scene.walls else 0)) * self.Ny * self.Nz
 
     @property
     def spacing(self):
         """Lattice step per dimension [m]."""
-        return (self.dx, self.dy)
+        return (self.dx, self.dy, self.dz)[:self.dim]
+
+    @property
+    def velocity_scale(self):
+        """The scene's velocity scale [m/s]: errors are normalised by it."""
+        return self.scene.velocity_scale(self)
 
     @property
     def reynolds(self):
-        return abs(self.V_w) * self.L / self.nu if self.nu > 0 else math.inf
+        return self.velocity_scale * self.L / self.nu if self.nu > 0 else math.inf
 
     def get(self, dotted):
         section, key = dotted.split(".")
@@ -268,23 +289,43 @@ def build(raw, text):
     h = num["h"] if num["h"] is not None else num["h_over_dx"] * dx
     Ny = max(1, round(Ly / dx))
     dy = Ly / Ny
+    Lz = (dom["Lz"] if dom["Lz"] is not None else Ly) if dim == 3 else dx
+    Nz = max(1, round(Lz / dx)) if dim == 3 else 1
+    dz = Lz / Nz
+    scene = get_scene(v["scene"]["name"])
+    terms = v["terms"]
     kern = get_kernel(num["kernel"], dim)
     support = kern.support * h
     need_layers = math.ceil(support / dx - 1e-9)
     layers = walls["layers"] or need_layers
-    if layers * dx < support * (1 - 1e-9):
+    if get_scene(v["scene"]["name"]).walls and layers * dx < support * (1 - 1e-9):
         raise ConfigError("walls.layers", f"{layers} layers of dx = {dx:g} m do not cover the kernel "
                           f"support {support:g} m; need at least {need_layers}")
     if Ly < support:
         raise ConfigError("domain.Ly", f"{Ly:g} m is shorter than the kernel support 2h = {support:g} m")
+    if dim == 3 and Lz < support:
+        raise ConfigError("domain.Lz", f"{Lz:g} m is shorter than the kernel support 2h = {support:g} m")
+    if not scene.walls and L < support:
+        raise ConfigError("domain.L", f"{L:g} m is shorter than the kernel support 2h = {support:g} m")
     g = v["body_force"]["g"]
     if g is None:
         g = (0.0,) * dim
     if len(g) != dim:
         raise ConfigError("body_force.g", f"needs {dim} components, got {len(g)}")
+    if scene.terms.body_force and not any(g):
+        raise ConfigError("body_force.g", f"the {scene.name} scene is driven by a body force; give a non-zero g")
     theta0 = mat["theta0"]
+    cfg = RunConfig(
+        values=v, text=text, dim=dim, L=L, Ly=Ly, Lz=Lz, Nx=Nx, Ny=Ny, Nz=Nz, dx=dx, dy=dy, dz=dz, h=h,
+        layers=layers if scene.walls else 0,
+        mass=mat["rho_s"] * theta0 * dx * dy * (dz if dim == 3 else 1.0), rho_s=mat["rho_s"], theta0=theta0,
+        k=mat["k"], G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
+        kernel=num["kernel"], dt=0.0, dt_auto=False, t_end=out["t_end"], nsteps=0, output_times=(),
+        integrator=num["integrator"], g=tuple(g), scene=scene,
+        pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
+        viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
     limits = dt_limits(h, theta0, mat["rho_s"], mat["k"], mat["G_a"], mat["G_b"],
-                       abs(walls["V_w"]), math.sqrt(sum(x * x for x in g)))
+                       cfg.velocity_scale, math.sqrt(sum(x * x for x in g)))
     dt_max = min(limits.values())
     if num["dt"] == "auto":
         dt, auto = num["dt_safety"] * dt_max, True
@@ -302,12 +343,7 @@ def build(raw, text):
     for t in times:
         if not 0 <= t <= t_end * (1 + 1e-12):
             raise ConfigError("output.times", f"{t:g} s lies outside [0, t_end = {t_end:g} s]")
-    return RunConfig(
-        values=v, text=text, dim=dim, L=L, Ly=Ly, Nx=Nx, Ny=Ny, dx=dx, dy=dy, h=h, layers=layers,
-        mass=mat["rho_s"] * theta0 * dx * dy, rho_s=mat["rho_s"], theta0=theta0, k=mat["k"],
-        G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
-        kernel=num["kernel"], dt=dt, dt_auto=auto, t_end=t_end, nsteps=nsteps,
-        output_times=times, integrator=num["integrator"], g=tuple(g), limits=limits)
+    return replace(cfg, dt=dt, dt_auto=auto, nsteps=nsteps, output_times=times, limits=limits)
 
 
 def load(path, overrides=()):

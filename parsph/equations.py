@@ -8,7 +8,11 @@
                 + mu_i sum_j m_j v_ij (theta_i+theta_j)/(rho_bar_i rho_bar_j) (1/r_ij) dW/dr
                 + g,      mu_i = k theta_i,
 
-  (``symmetric_mu``: mu_i replaced by the pair mean k (theta_i + theta_j)/2,
+  (``consistent``: the pressure term replaced by the symmetric SPH gradient
+  sum_j m_j (p_i/rho_bar_i^2 + p_j/rho_bar_j^2) dW/dr r_ij/r_ij of
+  p = G / (G_a ln 10), whose gradient is G grad theta as the closure says;
+  the paper's form converges to grad(G theta) instead;
+  ``symmetric_mu``: mu_i replaced by the pair mean k (theta_i + theta_j)/2,
   which is the same in a uniform state but makes the viscous force of a pair
   antisymmetric, so that momentum is conserved exactly),
 
@@ -25,6 +29,13 @@ fixed order and the particles of a cell in gid order; it stores them, with
 order. Every sum is thus taken in an order that does not depend on the
 decomposition. These functions know nothing of MPI: halo copies are ordinary
 neighbours.
+
+The switches of :func:`momentum` (pressure, viscosity, symmetric viscosity,
+walls) are compile-time constants made by :func:`switch`: an empty tuple is
+off, ``(1,)`` is on, so each value is its own type, numba compiles one version
+per combination a scene uses, ``len(switch)`` is a constant, and a term
+switched off leaves no branch in the pair loop. (``numba.literally`` does the
+same but costs tens of milliseconds per call.)
 """
 import math
 
@@ -32,6 +43,13 @@ from numba import njit
 
 from .kernels import kernel_dwdr, kernel_w
 from .particles import FLUID
+
+ON, OFF = (1,), ()
+
+
+def switch(flag):
+    """A compile-time switch for the loops below."""
+    return ON if flag else OFF
 
 
 @njit(cache=True)
@@ -97,18 +115,28 @@ def density(n, sx, sy, sz, sm, skind, owned, cell_of, start, ncx, ncy, ncz, h, n
 
 
 @njit(cache=True)
-def volume_fraction(rho, n, rho_s, G_a, theta, half_G):
-    """theta = rho_bar / rho_s and the per-particle factor 10^(G_a theta / 2)."""
+def volume_fraction(rho, n, rho_s, G_a, G_b, theta, press, pressure, consistent):
+    """theta = rho_bar / rho_s and the per-particle factor of the pressure term.
+
+    ``press`` is 10^(G_a theta / 2) for the paper's form (G at the pair mean is
+    10^G_b press_i press_j) and p(theta) / rho_bar^2 for the consistent form,
+    with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly.
+    """
+    ln10 = math.log(10.0)
     for i in range(n):
         th = rho[i] / rho_s
         theta[i] = th
-        half_G[i] = 10.0 ** (0.5 * G_a * th)
+        if len(pressure):
+            if len(consistent):
+                press[i] = 10.0 ** (G_a * th + G_b) / (G_a * ln10) / (rho[i] * rho[i])
+            else:
+                press[i] = 10.0 ** (0.5 * G_a * th)
 
 
 @njit(cache=True)
-def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, shalf_G, owned,
+def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, spress, owned,
              nbr_start, nbr_j, nbr_f, rho_s, G_b, k_visc, L, beta_max, g,
-             pressure, viscosity, symmetric_mu, sax, say, saz):
+             pressure, viscosity, symmetric_mu, walls, consistent, sax, say, saz):
     """Eq. (5): acceleration of each owned fluid particle (sorted places; walls: zero)."""
     G_pref = 10.0 ** G_b
     inv_rho_s2 = 1.0 / (rho_s * rho_s)
@@ -122,7 +150,7 @@ def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, shalf_G, own
         inv_th_i = 1.0 / th_i
         mu_i = k_visc * th_i
         rho_i = srho[i]
-        hg_i = shalf_G[i]
+        pr_i = spress[i]
         xi = sx[i]
         yi = sy[i]
         zi = sz[i]
@@ -133,14 +161,17 @@ def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, shalf_G, own
             j = nbr_j[p]
             f_over_r = nbr_f[p]
             m_j = sm[j]
-            if pressure:
-                cp = -m_j * inv_rho_s2 * G_pref * hg_i * shalf_G[j] * (inv_th_i + 1.0 / stheta[j]) * f_over_r
+            if len(pressure):
+                if len(consistent):
+                    cp = -m_j * (pr_i + spress[j]) * f_over_r
+                else:
+                    cp = -m_j * inv_rho_s2 * G_pref * pr_i * spress[j] * (inv_th_i + 1.0 / stheta[j]) * f_over_r
                 ax += cp * (xi - sx[j])
                 ay += cp * (yi - sy[j])
                 az += cp * (zi - sz[j])
-            if viscosity:
+            if len(viscosity):
                 beta = 1.0
-                if skind[j] != FLUID:
+                if len(walls) and skind[j] != FLUID:
                     if sx[j] < 0.0:
                         d_j = -sx[j]
                         d_i = xi
@@ -150,7 +181,7 @@ def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, shalf_G, own
                     beta = beta_max
                     if d_i > 0.0:
                         beta = min(beta_max, 1.0 + d_j / d_i)
-                mu = 0.5 * k_visc * (th_i + stheta[j]) if symmetric_mu else mu_i
+                mu = 0.5 * k_visc * (th_i + stheta[j]) if len(symmetric_mu) else mu_i
                 cv = mu * m_j * (th_i + stheta[j]) / (rho_i * srho[j]) * f_over_r * beta
                 ax += cv * (svx[i] - svx[j])
                 ay += cv * (svy[i] - svy[j])

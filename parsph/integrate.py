@@ -8,7 +8,8 @@
     r^{n+1} = r^n + dt v*,  v^{n+1} = v^n + dt R(r*, v*).
 
 Wall particles move with their prescribed velocity (r += dt v). Positions are
-wrapped into the periodic [0, Ly) at the end of a step. Each function returns
+wrapped into the periodic box at the end of a step (``box[d]`` is the period
+of direction d, 0 where it is not periodic; y always is). Each function returns
 the number of owned particles whose new state is not finite, so that a blow-up
 is caught before the next neighbour search.
 """
@@ -31,19 +32,22 @@ def _finite(pos, vel, i):
 
 
 @njit(cache=True, inline="always")
-def _wrap(pos, i, Ly):
-    y = pos[i, 1]
-    if y >= Ly:
-        y -= Ly
-    elif y < 0.0:
-        y += Ly
-        if y >= Ly:
-            y = 0.0
-    pos[i, 1] = y
+def _wrap(pos, i, box):
+    for d in range(pos.shape[1]):
+        period = box[d]
+        if period > 0.0:
+            y = pos[i, d]
+            if y >= period:
+                y -= period
+            elif y < 0.0:
+                y += period
+                if y >= period:
+                    y = 0.0
+            pos[i, d] = y
 
 
 @njit(cache=True)
-def step_paper(pos, vel, acc, kind, n_own, dt, Ly):
+def step_paper(pos, vel, acc, kind, n_own, dt, box):
     """Eqs. (6)-(7)."""
     dim = pos.shape[1]
     half_dt2 = 0.5 * dt * dt
@@ -56,7 +60,7 @@ def step_paper(pos, vel, acc, kind, n_own, dt, Ly):
         else:
             for d in range(dim):
                 pos[i, d] += dt * vel[i, d]
-        _wrap(pos, i, Ly)
+        _wrap(pos, i, box)
         bad += 1 - _finite(pos, vel, i)
     return bad
 
@@ -78,7 +82,7 @@ def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0):
 
 
 @njit(cache=True)
-def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, Ly):
+def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, box):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*)."""
     dim = pos.shape[1]
     bad = 0
@@ -87,6 +91,6 @@ def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, Ly):
             pos[i, d] = pos0[i, d] + dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] = vel0[i, d] + dt * acc[i, d]
-        _wrap(pos, i, Ly)
+        _wrap(pos, i, box)
         bad += 1 - _finite(pos, vel, i)
     return bad

@@ -15,7 +15,7 @@ from numba import njit
 class Workspace:
     """Preallocated cell-ordered arrays, grown only when the particle count grows."""
 
-    FIELDS_F = ("sx", "sy", "sz", "svx", "svy", "svz", "sm", "srho", "stheta", "shalf_G",
+    FIELDS_F = ("sx", "sy", "sz", "svx", "svy", "svz", "sm", "srho", "stheta", "spress",
                 "sax", "say", "saz")
     FIELDS_I = ("order", "cell_of", "skind", "tmp")
 

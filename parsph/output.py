@@ -12,10 +12,11 @@ output whole and readable, and every output file is a restart point. In a file:
     /                      attrs: parsph_version, run_file (TOML), scene, dim, n_particles, ranks,
                                   time, step, index, dt, L, Ly, V_w, nu, integrator state
     /profile/x             (Nx,)          bin centres [m]
-    /profile/vy            (Nx,)          simulated v_y per bin [m/s]
+    /profile/vy, theta     (Nx,)          mean v_y [m/s] and theta of the fluid particles per bin
     /profile/count         (Nx,)          fluid particles per bin
-    /profile/vy_exact      (Nx,)          reference v_y, scenes with one [m/s]
-    /profile attrs         err_max, err_rms: |v - v_exact| / V_w, max and RMS over bins
+    /profile/vy_exact, theta_exact (Nx,)  the scene's reference (NaN where it has none)
+    /profile attrs         err_max, err_rms: |f - f_exact| / scale of the scene's error field
+                           (root attrs error_field, error_scale), max and RMS over bins
     /particles/{id, kind, position, velocity, theta}   (N,), (N,), (N, dim), (N, dim), (N,)
 
 Each rank writes its particles as one hyperslab at the offset given by an
@@ -34,6 +35,7 @@ from . import __version__
 
 SERIAL_ENV = "PARSPH_SERIAL_HDF5"  # set to 1 to force the gather-to-rank-0 path
 PARTICLE_FIELDS = ("id", "kind", "mass", "position", "velocity", "theta")
+PROFILE_FIELDS = ("x", "vy", "theta", "count", "vy_exact", "theta_exact")
 
 
 def parallel_hdf5_available():
@@ -74,7 +76,8 @@ class Output:
         """Write the next output: the profile, and the particles if snapshots are on."""
         cfg, comm = self.cfg, self.comm
         snapshot = cfg.values["output"]["snapshots"] if snapshot is None else snapshot
-        x, vy, counts, exact, (emax, erms) = sim.profile()
+        prof = sim.profile()
+        emax, erms = prof["err"]
         name = output_name(self.stem, self.index)
         final = os.path.join(self.dir, name)
         part = final + ".part"
@@ -89,13 +92,15 @@ class Output:
                 "ranks": comm.size, "time": sim.t, "step": sim.step, "index": self.index,
                 "dt": sim.dt, "L": cfg.L, "Ly": cfg.Ly, "V_w": cfg.V_w, "nu": cfg.nu,
                 "kinds": "0 fluid, 1 fixed wall, 2 moving wall", "units": "SI: m, s, kg, m/s",
-                "snapshot": bool(snapshot),
+                "snapshot": bool(snapshot), "error_field": cfg.scene.error_field,
+                "error_scale": cfg.velocity_scale if cfg.scene.error_field == "vy" else cfg.theta0,
             })
             g = f.create_group("profile")
             g.attrs["err_max"] = emax
             g.attrs["err_rms"] = erms
-            for key, arr, unit in (("x", x, "m"), ("vy", vy, "m/s"), ("count", counts, "1"),
-                                   ("vy_exact", exact if exact is not None else np.full_like(x, np.nan), "m/s")):
+            for key, unit in (("x", "m"), ("vy", "m/s"), ("theta", "1"), ("count", "1"),
+                              ("vy_exact", "m/s"), ("theta_exact", "1")):
+                arr = prof[key]
                 d = g.create_dataset(key, arr.shape, dtype="f8")
                 d.attrs["units"] = unit
                 if self.root:
@@ -208,15 +213,14 @@ def read_profile(path):
     for fn in files:
         with h5py.File(fn, "r") as f:
             g = f["profile"]
-            rows.append({"time": f.attrs["time"], "step": f.attrs["step"], "x": g["x"][()],
-                         "vy": g["vy"][()], "count": g["count"][()], "vy_exact": g["vy_exact"][()],
-                         "err_max": g.attrs["err_max"], "err_rms": g.attrs["err_rms"],
-                         "attrs": dict(f.attrs)})
+            row = {key: g[key][()] for key in PROFILE_FIELDS}
+            row.update(time=f.attrs["time"], step=f.attrs["step"], err_max=g.attrs["err_max"],
+                       err_rms=g.attrs["err_rms"], attrs=dict(f.attrs))
+            rows.append(row)
     rows.sort(key=lambda r: r["time"])
     if not rows:
         raise FileNotFoundError(f"no complete output in {path}")
-    out = {k: np.array([r[k] for r in rows]) for k in ("time", "step", "vy", "count", "vy_exact",
-                                                        "err_max", "err_rms")}
+    out = {k: np.array([r[k] for r in rows]) for k in ("time", "step", "err_max", "err_rms") + PROFILE_FIELDS}
     out["x"] = rows[0]["x"]
     out["attrs"] = rows[-1]["attrs"]
     return out

@@ -34,7 +34,6 @@ class Particles:
             "acc": np.zeros((cap, dim)),
             "rho": np.zeros(cap),
             "theta": np.zeros(cap),
-            "half_G": np.zeros(cap),
         }
         if old is not None:
             for name, arr in new.items():
@@ -47,7 +46,7 @@ class Particles:
         """Grow every array to hold at least n particles, keeping the first ``keep``."""
         if n > self.capacity:
             old = {name: getattr(self, name) for name in
-                   ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta", "half_G")}
+                   ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")}
             self._alloc(max(n, int(1.5 * self.capacity)), old, self.n if keep is None else keep)
 
     @classmethod
@@ -123,3 +122,49 @@ def _compact(gone, k, n, gid, kind, mass, pos, vel):
                 vel[w, c] = vel[i, c]
         w += 1
     return w
+
+
+@njit(cache=True)
+def add_images(gid, kind, mass, pos, vel, n, axis, period, width, src):
+    """Append periodic copies of particles 0..n-1 lying within ``width`` of either end of [0, period).
+
+    Copies are shifted by +period (near 0) or -period (near the top); ``src``
+    receives each copy's original index. Returns the number of copies (the
+    arrays must have room for them: see :func:`count_images`).
+    """
+    d = pos.shape[1]
+    k = 0
+    for i in range(n):
+        x = pos[i, axis]
+        for shift in (period, -period):
+            if (shift > 0.0 and x < width) or (shift < 0.0 and x >= period - width):
+                j = n + k
+                gid[j] = gid[i]
+                kind[j] = kind[i]
+                mass[j] = mass[i]
+                for c in range(d):
+                    pos[j, c] = pos[i, c]
+                    vel[j, c] = vel[i, c]
+                pos[j, axis] = x + shift
+                src[k] = i
+                k += 1
+    return k
+
+
+@njit(cache=True)
+def count_images(pos, n, axis, period, width):
+    k = 0
+    for i in range(n):
+        x = pos[i, axis]
+        if x < width:
+            k += 1
+        if x >= period - width:
+            k += 1
+    return k
+
+
+@njit(cache=True)
+def copy_from_sources(arr, start, src, k):
+    """arr[start + m] = arr[src[m]] for m < k (refresh periodic copies)."""
+    for m in range(k):
+        arr[start + m] = arr[src[m]]

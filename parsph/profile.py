@@ -1,7 +1,8 @@
-"""The reduced velocity profile v_y(x): fluid particles binned in x.
+"""The reduced profiles v_y(x) and theta(x): fluid particles binned in x.
 
 Bins are the lattice columns, [i dx, (i+1) dx) for i = 0 .. Nx-1. Errors
-against a reference are normalised by V_w: the max norm and the RMS over bins.
+against a reference are normalised by a scale (V_w for Couette): the max norm
+and the RMS over bins.
 """
 import numpy as np
 from numba import njit
@@ -10,11 +11,12 @@ from .particles import FLUID
 
 
 @njit(cache=True)
-def bin_sums(pos, vel, kind, n_own, dx, nbins, sums, counts):
-    """Add v_y of owned fluid particles into x bins (local part of the reduction)."""
+def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, sums):
+    """Sums of v_y (row 0), theta (row 1) and counts (row 2) of owned fluid particles per x bin."""
     for b in range(nbins):
-        sums[b] = 0.0
-        counts[b] = 0.0
+        sums[0, b] = 0.0
+        sums[1, b] = 0.0
+        sums[2, b] = 0.0
     for i in range(n_own):
         if kind[i] != FLUID:
             continue
@@ -23,8 +25,9 @@ def bin_sums(pos, vel, kind, n_own, dx, nbins, sums, counts):
             b = 0
         elif b >= nbins:
             b = nbins - 1
-        sums[b] += vel[i, 1]
-        counts[b] += 1.0
+        sums[0, b] += vel[i, 1]
+        sums[1, b] += theta[i]
+        sums[2, b] += 1.0
 
 
 def bin_centres(L, nbins):

@@ -19,9 +19,8 @@ from .closures import modulus
 from .config import dt_limits
 from .decomposition import SlabRing
 from .kernels import get_kernel, lattice_sum
-from .particles import FLUID, Particles
+from .particles import FLUID, Particles, add_images, copy_from_sources, count_images
 from .profile import bin_centres, bin_sums, errors
-from .scenes import get_scene
 
 PHASES = ("halo", "neighbours", "density", "forces", "integrate", "migrate", "output", "checks")
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
@@ -41,8 +40,7 @@ class Simulation:
         """Set up the run on ``comm``; ``state`` (from output.read_state) continues a run."""
         self.cfg = cfg
         self.comm = comm
-        self.scene = get_scene(cfg.values["scene"]["name"])
-        self.terms = self.scene.terms
+        self.scene = cfg.scene
         self.kernel = get_kernel(cfg.kernel, cfg.dim)
         self.norm = self.kernel.norm(cfg.h, cfg.dim)
         self.support = self.kernel.support * cfg.h
@@ -62,10 +60,19 @@ class Simulation:
         # so that the undisturbed lattice is in equilibrium next to a wall.
         self.rho_wall = cfg.mass * lattice_sum(self.kernel, cfg.h, cfg.spacing)
         self.ps.rho[:self.ps.n] = self.rho_wall
-        self.x0 = -cfg.layers * cfg.dx - self.support
+        self.x0 = -cfg.layers * cfg.dx - self.halo
         self.g = np.zeros(3)
-        if self.terms.body_force:
+        if self.scene.terms.body_force:
             self.g[:cfg.dim] = cfg.g
+        # periods of the box per direction (0: bounded by walls); y is cut into slabs
+        self.box = np.array([0.0 if self.scene.walls else cfg.L, cfg.Ly, cfg.Lz if cfg.dim == 3 else 0.0])
+        # directions made periodic on the rank itself, by copies: x without walls, z in 3-D
+        self.local_periodic = [(d, self.box[d]) for d in (0, 2) if self.box[d] > 0]
+        self._images = []  # (start, src indices, count) per direction, in creation order
+        sw = equations.switch
+        self._switches = (sw(cfg.pressure), sw(cfg.viscosity),
+                          sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(self.scene.walls),
+                          sw(cfg.get("numerics.pressure_form") == "consistent"))
         self.step = 0 if state is None else int(state["attrs"]["step"])
         self.t = 0.0 if state is None else float(state["attrs"]["time"])
         self.dt = cfg.dt if state is None else float(state["attrs"]["dt"])
@@ -76,8 +83,7 @@ class Simulation:
         self.work = neighbours.Workspace()
         self.n_total = comm.allreduce(self.ps.n_own)
         self.nbins = cfg.Nx
-        self._sums = np.zeros(self.nbins)
-        self._counts = np.zeros(self.nbins)
+        self._sums = np.zeros((3, self.nbins))
 
 
     # ---- one evaluation of the right-hand side -------------------------------
@@ -86,6 +92,7 @@ class Simulation:
         cfg, ps, T, W = self.cfg, self.ps, self.timers, self.work
         t0 = time.perf_counter()
         self.ring.exchange_halo(ps)
+        self._add_periodic_images()
         t1 = time.perf_counter()
         n = ps.n
         W.ensure(n)
@@ -103,13 +110,15 @@ class Simulation:
         neighbours.scatter_owned(W.srho, W.order, W.owned, n, ps.rho)
         t3 = time.perf_counter()
         self.ring.exchange_halo_field(ps, "rho")
+        for start_, src, k in self._images:
+            copy_from_sources(ps.rho, start_, src, k)
         t4 = time.perf_counter()
         neighbours.gather(ps.rho, W.order, n, W.srho)
-        equations.volume_fraction(W.srho, n, cfg.rho_s, cfg.G_a, W.stheta, W.shalf_G)
+        equations.volume_fraction(W.srho, n, cfg.rho_s, cfg.G_a, cfg.G_b, W.stheta, W.spress,
+                                  self._switches[0], self._switches[4])
         equations.momentum(n, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.srho, W.stheta,
-                           W.shalf_G, W.owned, W.nbr_start, W.nbr_j, W.nbr_f, cfg.rho_s, cfg.G_b, cfg.k,
-                           cfg.L, cfg.beta_max, self.g, self.terms.pressure, self.terms.viscosity,
-                           cfg.get("numerics.viscosity_form") == "symmetric", W.sax, W.say, W.saz)
+                           W.spress, W.owned, W.nbr_start, W.nbr_j, W.nbr_f, cfg.rho_s, cfg.G_b, cfg.k,
+                           cfg.L, cfg.beta_max, self.g, *self._switches, W.sax, W.say, W.saz)
         neighbours.scatter_owned_vec(W.sax, W.say, W.saz, W.order, W.owned, n, ps.acc)
         neighbours.scatter_owned(W.stheta, W.order, W.owned, n, ps.theta)
         t5 = time.perf_counter()
@@ -117,6 +126,19 @@ class Simulation:
         T["neighbours"] += t2 - t1
         T["density"] += t3 - t2
         T["forces"] += t5 - t4
+
+    def _add_periodic_images(self):
+        """Copies of the particles near the ends of each locally periodic direction (x, z)."""
+        ps = self.ps
+        self._images = []
+        for axis, period in self.local_periodic:
+            n = ps.n
+            k = count_images(ps.pos, n, axis, period, self.halo)
+            ps.ensure(n + k, keep=n)
+            src = np.zeros(k, np.int64)
+            add_images(ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, n, axis, period, self.halo, src)
+            self._images.append((n, src, k))
+            ps.n = n + k
 
     def advance(self, dt, stop_requested=None):
         """One step of the chosen integrator, then hand particles that left the slab to their owner.
@@ -129,7 +151,7 @@ class Simulation:
         ps, T, cfg = self.ps, self.timers, self.cfg
         t0 = time.perf_counter()
         if cfg.integrator == "paper":
-            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, cfg.Ly)
+            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, self.box)
         else:
             if self._saved[0].shape[0] < ps.n_own:
                 self._saved = (np.zeros((ps.capacity, cfg.dim)), np.zeros((ps.capacity, cfg.dim)))
@@ -139,7 +161,7 @@ class Simulation:
             self._agree(bad, False)
             self.compute_rates()
             t0 = time.perf_counter()
-            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, pos0, vel0, cfg.Ly)
+            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, pos0, vel0, self.box)
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         t1 = time.perf_counter()
@@ -176,23 +198,27 @@ class Simulation:
 
     # ---- reductions ------------------------------------------------------------
     def profile(self):
-        """Global v_y(x): per-bin sums and counts all-reduced over ranks."""
-        ps = self.ps
-        bin_sums(ps.pos, ps.vel, ps.kind, ps.n_own, self.cfg.L / self.nbins, self.nbins,
-                 self._sums, self._counts)
+        """Global v_y(x) and theta(x): per-bin sums and counts all-reduced over ranks.
+
+        Returns a dict: x, vy, theta, count, the scene's reference profiles
+        (vy_exact, theta_exact; NaN where it has none) and (err_max, err_rms)
+        of its error field, normalised by V_w (velocity) or theta_0 (theta).
+        """
+        ps, cfg = self.ps, self.cfg
+        bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self._sums)
         sums = np.empty_like(self._sums)
-        counts = np.empty_like(self._counts)
         self.comm.Allreduce(self._sums, sums, op=MPI.SUM)
-        self.comm.Allreduce(self._counts, counts, op=MPI.SUM)
+        count = sums[2]
         with np.errstate(invalid="ignore", divide="ignore"):
-            vy = sums / counts
-        x = bin_centres(self.cfg.L, self.nbins)
-        exact = None
-        err = (math.nan, math.nan)
-        if self.scene.exact_profile is not None:
-            exact = self.scene.exact_profile(self.cfg, x, self.t)
-            err = errors(vy, exact, self.scene.velocity_scale(self.cfg))
-        return x, vy, counts, exact, err
+            out = {"x": bin_centres(cfg.L, self.nbins), "vy": sums[0] / count, "theta": sums[1] / count,
+                   "count": count}
+        ref = self.scene.reference(cfg, out["x"], self.t) if self.scene.reference else {}
+        for key in ("vy", "theta"):
+            out[key + "_exact"] = ref.get(key, np.full(self.nbins, np.nan))
+        field = self.scene.error_field
+        scale = cfg.velocity_scale if field == "vy" else cfg.theta0
+        out["err"] = errors(out[field], out[field + "_exact"], scale) if field in ref else (math.nan, math.nan)
+        return out
 
     def check(self):
         """Collective run-time checks (CHECKS); on failure every rank raises GuardError."""
