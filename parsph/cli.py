@@ -60,7 +60,8 @@ class _Signals:
         self.received = signum
 
     def __call__(self):
-        return self.received is not None
+        """The number of the signal received (0: none)."""
+        return int(self.received or 0)
 
 
 def cmd_run(args):
@@ -84,11 +85,10 @@ def cmd_run(args):
         if root:
             print(f"parsph: error: {e}; earlier outputs are intact", file=sys.stderr, flush=True)
         return EXIT_GUARD
-    except Interrupted as e:  # raised on every rank alike
+    except Interrupted as e:  # raised on every rank alike, with the signal they agreed on
         if root:
-            name = signal.Signals(signals.received).name if signals.received else "signal"
-            print(f"parsph: {name}: {e}", file=sys.stderr, flush=True)
-        return EXIT_SIGNAL.get(signals.received, EXIT_ERROR)
+            print(f"parsph: {signal.Signals(e.signum).name}: {e}", file=sys.stderr, flush=True)
+        return EXIT_SIGNAL.get(e.signum, EXIT_ERROR)
     except Exception as e:  # noqa: BLE001 - any failure must end every rank
         print(f"parsph: error on rank {comm.rank}: {type(e).__name__}: {e}", file=sys.stderr, flush=True)
         if comm.size > 1:
@@ -102,11 +102,13 @@ def _restart_state(cfg, path):
     from .output import last_snapshot, output_files, read_state
     try:
         files = output_files(path)
-    except (FileNotFoundError, ValueError) as e:
-        raise UsageError(f"--restart {path}: {e}") from None
-    snap = last_snapshot(path) if len(files) != 1 else files[0]
-    state = read_state(snap)
-    old = config.loads(state["attrs"]["run_file"]).values
+        snap = last_snapshot(path) if len(files) != 1 else files[0]
+        state = read_state(snap)
+        old = config.loads(state["attrs"]["run_file"]).values
+    except FileNotFoundError:
+        raise UsageError(f"--restart {path}: no such output, or no complete output with particles in it") from None
+    except (ValueError, OSError, KeyError, config.ConfigError) as e:
+        raise UsageError(f"--restart {path}: not a usable parsph output ({e})") from None
     for section, keys in cfg.values.items():
         if section in RESTART_FREE:
             continue
@@ -135,27 +137,31 @@ def _run(comm, args, say, signals):
         state = _restart_state(cfg, args.restart) if args.restart else None
         first = 0 if state is None else int(state["attrs"]["index"]) + 1
         if os.path.isdir(out_dir) and not args.force:
-            taken = [f for f, k in _existing(out_dir, stem) if k >= first]
+            # unfinished (.part) files are debris of a killed run, not outputs
+            taken = [f for f, k in _existing(out_dir, stem) if k >= first and not f.endswith(".part")]
             if taken:
                 raise UsageError(f"output {os.path.join(out_dir, taken[0])} exists; "
                                  f"pass --force to overwrite, or choose --out")
+        return cfg, state, first
+
+    def make_dir():
         if comm.rank == 0:
             try:
                 os.makedirs(out_dir, exist_ok=True)
             except OSError as e:
                 raise UsageError(f"cannot create output directory {out_dir}: {e.strerror}") from None
-        return cfg, state, first
 
     def writable():
         if not os.access(out_dir, os.W_OK):
             raise UsageError(f"output directory {out_dir} is not writable")
 
     cfg, state, first = _agree(comm, prepare)
-    _agree(comm, writable)
     _agree(comm, lambda: _fits_in_memory(comm, cfg))
-    if args.force and comm.rank == 0:
+    _agree(comm, make_dir)
+    _agree(comm, writable)
+    if comm.rank == 0:
         for f, k in _existing(out_dir, stem):
-            if k >= first:
+            if k >= first and (args.force or f.endswith(".part")):
                 os.remove(os.path.join(out_dir, f))
     comm.Barrier()
     sim = _agree(comm, lambda: Simulation(cfg, comm, state=state))

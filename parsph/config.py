@@ -23,7 +23,8 @@ class ConfigError(Exception):
     """A bad run file: ``key`` names the offending key."""
 
     def __init__(self, key, reason):
-        super().__init__(f"{key}: {reason}")
+        shown = key if key.isprintable() else repr(key)
+        super().__init__(f"{shown}: {reason}")
         self.key = key
         self.reason = reason
 
@@ -64,11 +65,11 @@ SCHEMA = {
     },
     "walls": {
         "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
-        "layers": Key("int", 0, nonnegative=True, doc="wall particle layers (0: the fewest covering 2h)"),
+        "layers": Key("int", 0, nonnegative=True, hi=1000, doc="wall particle layers (0: the fewest covering 2h)"),
         "beta_max": Key("float", 1.5, lo=1.0, doc="cap of the ghost velocity factor (Morris 1997)"),
     },
     "numerics": {
-        "Nx": Key("int", REQUIRED, lo=2, doc="particles across the channel"),
+        "Nx": Key("int", REQUIRED, lo=2, hi=2 ** 40, doc="particles across the channel"),
         "h": Key("float", None, positive=True, doc="smoothing length [m] (or give h_over_dx)"),
         "h_over_dx": Key("float", None, positive=True, doc="smoothing length in units of dx"),
         "kernel": Key("str", "cubic_spline", choices=KERNEL_NAMES, doc="smoothing kernel"),
@@ -94,12 +95,26 @@ SCHEMA = {
         "progress_interval": Key("float", 5.0, nonnegative=True, doc="seconds between progress lines (0: none)"),
     },
     "checks": {
-        "every": Key("int", 20, lo=1, doc="steps between run-time checks"),
+        "every": Key("int", 20, lo=1, hi=2 ** 40, doc="steps between run-time checks"),
         "theta_change": Key("float", 0.5, positive=True,
                             doc="largest accepted |theta - theta0| / theta0 of a fluid particle"),
         "energy": Key("bool", True, doc="stop when the fluid's kinetic energy exceeds the scene's bound"),
     },
 }
+
+
+def _float(key, value):
+    try:
+        return float(value)
+    except OverflowError:
+        raise ConfigError(key, "number too large") from None
+
+
+def _finite(key, value, what):
+    """A derived quantity must be a finite, positive float: else the key is out of range."""
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(key, f"out of range: {what} = {value!r}")
+    return value
 
 
 def _typed(key, spec, value):
@@ -112,7 +127,7 @@ def _typed(key, spec, value):
     if k == "float":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(key, f"expected a number, got {value!r}")
-        value = float(value)
+        value = _float(key, value)
         if not math.isfinite(value):
             raise ConfigError(key, f"must be finite, got {value!r}")
     elif k == "int":
@@ -129,7 +144,7 @@ def _typed(key, spec, value):
             raise ConfigError(key, f"expected a list of numbers, got {value!r}")
         out = []
         for v in value:
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(_float(key, v)):
                 raise ConfigError(key, f"expected a list of finite numbers, got {value!r}")
             out.append(float(v))
         return tuple(out)
@@ -283,10 +298,16 @@ def build(raw, text):
     L = dom["L"]
     Ly = dom["Ly"] if dom["Ly"] is not None else L
     Nx = num["Nx"]
-    dx = L / Nx
+    dx = _finite("domain.L", L / Nx, "dx = L / Nx")
     if (num["h"] is None) == (num["h_over_dx"] is None):
         raise ConfigError("numerics.h", "give exactly one of numerics.h and numerics.h_over_dx")
     h = num["h"] if num["h"] is not None else num["h_over_dx"] * dx
+    hkey = "numerics.h" if num["h"] is not None else "numerics.h_over_dx"
+    if not (math.isfinite(h) and 0 < h / dx <= 100):
+        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is outside (0, 100]")
+    for key, length in (("domain.Ly", Ly), ("domain.Lz", dom["Lz"] or Ly)):
+        if not length / dx <= 2 ** 40:
+            raise ConfigError(key, f"{length:g} m holds more than 2^40 particle rows of dx = {dx:g} m")
     Ny = max(1, round(Ly / dx))
     dy = Ly / Ny
     Lz = (dom["Lz"] if dom["Lz"] is not None else Ly) if dim == 3 else dx
@@ -324,8 +345,12 @@ def build(raw, text):
         integrator=num["integrator"], g=tuple(g), scene=scene,
         pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
         viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
-    limits = dt_limits(h, theta0, mat["rho_s"], mat["k"], mat["G_a"], mat["G_b"],
-                       cfg.velocity_scale, math.sqrt(sum(x * x for x in g)))
+    try:
+        limits = dt_limits(h, theta0, mat["rho_s"], mat["k"], mat["G_a"], mat["G_b"],
+                           cfg.velocity_scale, math.sqrt(sum(x * x for x in g)))
+    except OverflowError:
+        key = "material.G_a" if abs(mat["G_a"] * theta0) >= abs(mat["G_b"]) else "material.G_b"
+        raise ConfigError(key, f"G(theta0) = 10^({mat['G_a']:g} theta0 + {mat['G_b']:g}) overflows") from None
     dt_max = min(limits.values())
     if num["dt"] == "auto":
         dt, auto = num["dt_safety"] * dt_max, True
@@ -338,6 +363,8 @@ def build(raw, text):
             raise ConfigError("numerics.dt", f"{dt:g} s is above the stability limit {dt_max:.3g} s "
                               f"({which}); lower it, use \"auto\", or set numerics.allow_unstable_dt = true")
     t_end = out["t_end"]
+    if not t_end / dt <= 1e12:
+        raise ConfigError("numerics.dt", f"t_end / dt = {t_end / dt:.3g} steps is more than 1e12")
     nsteps = max(1, round(t_end / dt))
     times = tuple(sorted(set(out["times"])))
     for t in times:

@@ -34,6 +34,10 @@ class GuardError(RuntimeError):
 class Interrupted(RuntimeError):
     """A stop was requested (signal); raised on every rank alike after the last output."""
 
+    def __init__(self, message, signum):
+        super().__init__(message)
+        self.signum = signum
+
 
 class Simulation:
     def __init__(self, cfg, comm, state=None):
@@ -143,10 +147,10 @@ class Simulation:
     def advance(self, dt, stop_requested=None):
         """One step of the chosen integrator, then hand particles that left the slab to their owner.
 
-        Returns whether any rank was asked to stop (``stop_requested``). One
-        small all-reduce per step carries that and the integrator's count of
-        non-finite particles; a blow-up raises GuardError on every rank before
-        the next neighbour search.
+        Returns the largest stop code any rank got from ``stop_requested()``
+        (a signal number; 0: go on). One small all-reduce per step carries that
+        and the integrator's count of non-finite particles; a blow-up raises
+        GuardError on every rank before the next neighbour search.
         """
         ps, T, cfg = self.ps, self.timers, self.cfg
         t0 = time.perf_counter()
@@ -165,20 +169,20 @@ class Simulation:
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         t1 = time.perf_counter()
-        stop = self._agree(bad, stop_requested is not None and stop_requested())
+        stop = self._agree(bad, stop_requested() if stop_requested is not None else 0)
         self.ring.migrate(ps)
         T["integrate"] += t1 - t0
         T["migrate"] += time.perf_counter() - t1
         return stop
 
     def _agree(self, nonfinite, stop):
-        """All-reduce (non-finite count, stop flag); run the checks everywhere on a blow-up."""
+        """All-reduce (non-finite count, stop code); run the checks everywhere on a blow-up."""
         self._flag[0] = nonfinite
-        self._flag[1] = 1 if stop else 0
+        self._flag[1] = int(stop)
         self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
         if self._flag_all[0]:
             self.check()  # raises GuardError on every rank
-        return bool(self._flag_all[1])
+        return int(self._flag_all[1])
 
     def stable_dt(self):
         """The largest stable step for the current state (global minimum over ranks)."""
@@ -264,8 +268,9 @@ class Simulation:
     def run(self, output=None, progress=None, stop_requested=None):
         """Advance to t_end; ``output(sim)`` at each output time, ``progress(sim, rate, eta)``.
 
-        ``stop_requested()`` is polled every step; when it is true on any rank
-        the run writes a final output with particles and raises Interrupted.
+        ``stop_requested()`` (a signal number, 0 for none) is polled every
+        step; when it is set on any rank the run writes a final output with
+        particles and raises Interrupted on every rank with the same number.
         """
         cfg = self.cfg
         pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
@@ -275,7 +280,7 @@ class Simulation:
         interval = cfg.get("output.progress_interval")
         t_start = last = time.perf_counter()
         step0, tsim0 = self.step, self.t
-        stop = False
+        stop = 0
         while True:
             self.compute_rates()
             while pending and self._output_due(pending[0]) and output is not None:
@@ -292,7 +297,7 @@ class Simulation:
                 if output is not None:
                     output(self, snapshot=True)
                 raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; "
-                                  f"the last output is a restart point")
+                                  f"the last output is a restart point", stop)
             if cfg.dt_auto:
                 dt = cfg.get("numerics.dt_safety") * self.stable_dt()
                 target = min(pending[0], cfg.t_end) if pending else cfg.t_end
