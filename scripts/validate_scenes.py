@@ -55,11 +55,12 @@ def main():
     ap.add_argument("--out", default="results")
     ap.add_argument("--ranks", type=int, default=2)
     ap.add_argument("--quick", action="store_true", help="short runs (t_end / 10) to check the script")
+    ap.add_argument("--scenes", nargs="*", default=list(SCENES), help="run files to run (default: all)")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     lines = ["| scene | command | particles | wall time, %d ranks [s] | error at the last output |" % a.ranks,
              "| --- | --- | --- | --- | --- |"]
-    for name in SCENES:
+    for name in a.scenes:
         extra = []
         if a.quick:
             cfg0 = config.load(os.path.join(RUN, name + ".toml"))
