@@ -152,6 +152,17 @@ class SlabRing:
         arr[ps.n_own:ps.n_own + nl] = from_left[:, 0]
         arr[ps.n_own + nl:ps.n_own + nl + nr] = from_right[:, 0]
 
+    def count_strays(self, ps):
+        """Owned particles whose new owner is not this rank nor a neighbour (a blow-up)."""
+        nu, nd = self._select(ps, self.lo, self.hi)
+        if nu + nd == 0:
+            return 0
+        idx = np.concatenate([self._idx[TAG_UP][:nu], self._idx[TAG_DOWN][:nd]])
+        y = ps.pos[idx, 1]
+        ok = np.isfinite(y)
+        owner = np.searchsorted(self.bounds, y[ok], side="right") - 1
+        return int((~ok).sum() + ((owner != self.left) & (owner != self.right) & (owner != self.rank)).sum())
+
     # -- migration ----------------------------------------------------------
     def migrate(self, ps):
         """Hand owned particles that left the slab to the neighbour that owns them now.

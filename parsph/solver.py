@@ -24,7 +24,8 @@ from .profile import bin_centres, bin_sums, errors
 
 PHASES = ("halo", "neighbours", "density", "forces", "integrate", "migrate", "output", "checks")
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
-          3: "volume fraction out of range", 4: "kinetic energy above what the walls can inject"}
+          3: "volume fraction out of range", 4: "kinetic energy above what the walls can inject",
+          5: "particle moved more than one slab in one step"}
 
 
 class GuardError(RuntimeError):
@@ -149,8 +150,9 @@ class Simulation:
 
         Returns the largest stop code any rank got from ``stop_requested()``
         (a signal number; 0: go on). One small all-reduce per step carries that
-        and the integrator's count of non-finite particles; a blow-up raises
-        GuardError on every rank before the next neighbour search.
+        and the count of particles that are non-finite or jumped past the
+        neighbouring slab; a blow-up raises GuardError on every rank before
+        migration and the next neighbour search.
         """
         ps, T, cfg = self.ps, self.timers, self.cfg
         t0 = time.perf_counter()
@@ -169,6 +171,7 @@ class Simulation:
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         t1 = time.perf_counter()
+        bad += self.ring.count_strays(ps)
         stop = self._agree(bad, stop_requested() if stop_requested is not None else 0)
         self.ring.migrate(ps)
         T["integrate"] += t1 - t0
@@ -190,14 +193,20 @@ class Simulation:
         n = ps.n_own
         fluid = ps.kind[:n] == FLUID
         local = np.array([
-            np.abs(ps.vel[:n]).max(initial=0.0) * math.sqrt(cfg.dim),
+            np.sqrt((ps.vel[:n] ** 2).sum(axis=1)).max(initial=0.0),
             ps.theta[:n][fluid].max(initial=cfg.theta0),
             np.sqrt((ps.acc[:n] ** 2).sum(axis=1)).max(initial=0.0),
         ])
         glob = np.empty(3)
         self.comm.Allreduce(local, glob, op=MPI.MAX)
         vmax, theta_max, amax = glob
-        lim = dt_limits(cfg.h, min(theta_max, 0.999), cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax)
+        theta_max = min(theta_max, 0.999)
+        lim = dt_limits(cfg.h, theta_max, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax)
+        if cfg.integrator == "paper" and cfg.k > 0:
+            # Eq. (7) is first order in v: it amplifies pressure waves, |lambda|^2 = 1 - gamma dt
+            # + omega^2 dt^2 / 2, which only viscosity damps; measured stable down to 0.13 nu/c^2
+            # (docs/stability.md), so auto keeps 0.1 nu / c^2 = 0.1 k theta / G(theta).
+            lim["damping"] = 0.1 * cfg.k * theta_max / modulus(theta_max, cfg.G_a, cfg.G_b)
         return min(lim.values())
 
     # ---- reductions ------------------------------------------------------------
@@ -225,39 +234,60 @@ class Simulation:
         return out
 
     def check(self):
-        """Collective run-time checks (CHECKS); on failure every rank raises GuardError."""
+        """Collective run-time checks (CHECKS); on failure every rank raises GuardError.
+
+        The message names the worst offender over all ranks: the first check
+        in CHECKS order that fails anywhere, and within it the particle that
+        fails it most (deepest through a wall, furthest from theta_0, furthest
+        away); for the energy bound, the fastest fluid particle.
+        """
         ps, cfg = self.ps, self.cfg
         t0 = time.perf_counter()
         n = ps.n_own
+        pos, vel = ps.pos[:n], ps.vel[:n]
         fluid = ps.kind[:n] == FLUID
-        report = np.zeros(5)  # code, gid, x, y, value
-        bad = ~(np.isfinite(ps.pos[:n]).all(axis=1) & np.isfinite(ps.vel[:n]).all(axis=1)
-                & np.isfinite(ps.acc[:n]).all(axis=1))
-        through = fluid & ((ps.pos[:n, 0] < 0.0) | (ps.pos[:n, 0] > cfg.L)) if self.scene.walls else None
-        dev = np.where(fluid, np.abs(ps.theta[:n] - cfg.theta0), 0.0)
-        theta_bad = ~(dev <= cfg.get("checks.theta_change") * cfg.theta0) & fluid
-        for code, mask in ((1, bad), (2, through), (3, theta_bad)):
-            if mask is not None and mask.any():
-                k = int(np.argmax(mask))
-                report[:] = code, ps.gid[k], ps.pos[k, 0], ps.pos[k, 1], ps.theta[k]
+        report = np.zeros(6)  # code, severity, gid, x, y, value
+        finite = np.isfinite(pos).all(axis=1) & np.isfinite(vel).all(axis=1) & np.isfinite(ps.acc[:n]).all(axis=1)
+        depth = np.where(fluid & finite, np.maximum(-pos[:, 0], pos[:, 0] - cfg.L), -np.inf) \
+            if self.scene.walls else np.full(n, -np.inf)
+        dev = np.where(fluid & finite, np.abs(ps.theta[:n] - cfg.theta0), 0.0)
+        owner = np.searchsorted(self.ring.bounds, np.where(finite, pos[:, 1], 0.0), side="right") - 1
+        far = np.where(finite & (owner != self.ring.rank) & (owner != self.ring.left) & (owner != self.ring.right),
+                       1.0, 0.0)
+        for code, severity in ((1, np.where(finite, 0.0, 1.0)), (2, np.where(depth > 0, depth, 0.0)),
+                               (3, np.where(dev > cfg.get("checks.theta_change") * cfg.theta0, dev, 0.0)),
+                               (5, far)):
+            if n and severity.max() > 0:
+                k = int(np.argmax(severity))
+                report[:] = code, severity[k], ps.gid[k], pos[k, 0], pos[k, 1], ps.theta[k]
                 break
-        energy = np.array([0.5 * (ps.mass[:n][fluid] * (ps.vel[:n][fluid] ** 2).sum(axis=1)).sum(),
-                           ps.mass[:n][fluid].sum()])
-        reports = np.zeros((self.comm.size, 5))
+        speed2 = np.where(fluid & finite, (vel ** 2).sum(axis=1), -1.0)
+        k = int(np.argmax(speed2)) if n else 0
+        fastest = np.array([speed2[k] if n else -1.0, ps.gid[k] if n else -1, pos[k, 0] if n else 0.0,
+                            pos[k, 1] if n else 0.0])
+        energy = np.array([0.5 * (ps.mass[:n][fluid] * (vel[fluid] ** 2).sum(axis=1)).sum(), ps.mass[:n][fluid].sum()])
+        reports = np.zeros((self.comm.size, 6))
         self.comm.Allgather(report, reports)
+        fast = np.zeros((self.comm.size, 4))
+        self.comm.Allgather(fastest, fast)
         totals = np.zeros(2)
         self.comm.Allreduce(energy, totals, op=MPI.SUM)
         self.timers["checks"] += time.perf_counter() - t0
         failed = reports[reports[:, 0] > 0]
         where = f"at step {self.step}, t = {self.t:.6g} s"
         if len(failed):
-            code, gid, x, y, value = failed[0]
-            extra = f" (theta = {value:.4g}, theta0 = {cfg.theta0:g})" if code == 3 else ""
+            failed = failed[failed[:, 0] == failed[:, 0].min()]
+            code, severity, gid, x, y, value = failed[np.argmax(failed[:, 1])]
+            extra = {2: f" ({severity:.3g} m beyond the plate)", 3: f" (theta = {value:.4g}, theta0 = {cfg.theta0:g})",
+                     5: " (dt too large or the run blew up)"}.get(int(code), "")
             raise GuardError(f"check failed: {CHECKS[int(code)]} {where}: particle {int(gid)} "
                              f"at x = {x:.6g} m, y = {y:.6g} m{extra}")
         bound = self.scene.max_kinetic_energy(cfg, totals[1], self.t)
         if cfg.get("checks.energy") and not totals[0] <= bound:
-            raise GuardError(f"check failed: {CHECKS[4]} {where}: {totals[0]:.4g} J/m > {bound:.4g} J/m")
+            s2, gid, x, y = fast[np.argmax(fast[:, 0])]
+            raise GuardError(f"check failed: {CHECKS[4]} {where}: {totals[0]:.4g} J/m > {bound:.4g} J/m; "
+                             f"fastest particle {int(gid)} at x = {x:.6g} m, y = {y:.6g} m, "
+                             f"|v| = {math.sqrt(max(s2, 0.0)):.4g} m/s")
 
     # ---- the loop ----------------------------------------------------------------
     def _output_due(self, t_out):

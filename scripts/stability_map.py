@@ -1,0 +1,589 @@
+#!/usr/bin/env python
+"""Measured stability map of the Couette case against the predicted time-step limit (docs/stability.md).
+
+    .venv/bin/python scripts/stability_map.py                      # the grid -> results/stability/
+    .venv/bin/python scripts/stability_map.py --nx 50 --refine --long   # bisect the limits, confirm
+    .venv/bin/python scripts/stability_map.py --integrator midpoint     # the dense corner, midpoint
+    .venv/bin/python scripts/stability_map.py --plot-only          # redraw PNGs, summary, merged CSV
+    .venv/bin/python scripts/stability_map.py --quick --out DIR    # a 12-run smoke test
+
+Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
+``parsph run`` drives) on ``MPI.COMM_SELF`` in this one process: the flow is
+1-D in x, so a short periodic box ``L_y = 8 h`` (10 rows) carries it and the
+slab decomposition plays no part. Each run takes ``STEPS`` = 2,000 steps of a
+fixed
+
+    dt = multiple * predicted limit,  predicted limit = min(CFL with c(theta_0) + V_w, viscous, force)
+
+(``parsph.config.dt_limits``; ``numerics.allow_unstable_dt = true`` lets the
+multiples above 1 run). The solver's own guard runs every step
+(``checks.every = 1``) with the thresholds below, and the probe records the
+four criteria separately at every check (``check()`` is also what the
+per-step non-finite flag calls):
+
+    nonfinite  a fluid particle with a non-finite position, velocity or acceleration
+    wall       a fluid particle beyond a wall plane (x < 0 or x > L)
+    theta      max |theta - theta_0| / theta_0 over fluid particles > THETA_FRAC
+    energy     fluid kinetic energy > 1/2 M V_w^2 (the maximum principle |v| <= V_w)
+
+A run is *unstable* if any of them fired (or the solver raised anything else:
+column ``crash``), *stable* otherwise. The CSV has one row per run, with the
+step each criterion first fired (-1: never), the largest theta deviation, the
+largest kinetic-energy ratio and speed ratio seen, the guard's message, and
+the profile error against Eq. (8) at the end of stable runs.
+
+Not every failure is a time-step failure: some come at the same physical time
+whatever dt (the flow itself compacts near the moving plate). ``verdict``
+tells them apart (two failing runs >= 8 % apart in dt, same criterion, same
+time within 5 %: ``physical``); ``--long`` confirms each such column with a
+run at half the dt continued to 1.3x that time. Measured limits count
+time-step failures only.
+
+The grid (issue "Stability map"): theta_0 x Re x multiple at N_x = 50 and 10,
+and a subset at N_x = 200. Re = V_w L rho_s / (k theta_0), so k = V_w L rho_s /
+(Re theta_0). ``--refine`` extends each N_x = 50 (theta_0, Re) column beyond
+the grid (multiples up to 64 or down to 1/64) and bisects its time-step limit
+to within 10 %. Outputs: stability_map.csv (paper integrator),
+stability_map_midpoint.csv, stability_long.csv, stability_all.csv (all of
+them, with integrator and verdict: docs/stability_map.csv), summary*.txt and
+the PNGs. Rows already in a CSV are not run again (delete it to start afresh).
+"""
+import argparse
+import csv
+import math
+import os
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from mpi4py import MPI  # noqa: E402
+
+from parsph import config  # noqa: E402
+from parsph.closures import modulus  # noqa: E402
+from parsph.particles import FLUID  # noqa: E402
+from parsph.solver import GuardError, Simulation  # noqa: E402
+
+PAPER = ROOT / "run" / "couette_paper.toml"
+THETAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.6, 0.64, 0.7)
+RES = (1.0, 10.0, 57.0, 400.0, 2000.0)
+MULTS = (0.25, 0.5, 1.0, 1.5, 2.0, 4.0)
+NXS = (10, 50, 200)
+SUBSET_200 = {"theta0": (0.05, 0.35, 0.7), "Re": (1.0, 57.0, 2000.0)}
+STEPS = 2000
+THETA_FRAC = 0.2       # criterion "theta": largest accepted |theta - theta0| / theta0
+H_OVER_DX = 1.25
+LY_IN_H = 8            # L_y = 8 h = 10 dx: 10 lattice rows
+CRITERIA = ("nonfinite", "wall", "theta", "energy")
+
+FIELDS = ["nx", "theta0", "Re", "k", "multiple", "dt", "dt_limit", "limit_term", "dt_cfl", "dt_viscous",
+          "dt_acoustic_damping", "steps_planned", "steps_done", "t_done", "stable", "first_failure",
+          "fail_step", "nonfinite_step", "wall_step", "theta_step", "energy_step", "max_theta_dev",
+          "max_ke_ratio", "max_speed_ratio", "err_max", "err_rms", "guard", "crash", "message", "wall_s",
+          "source"]
+
+
+def base_raw():
+    with open(PAPER, "rb") as f:
+        raw = tomllib.load(f)
+    raw["numerics"].pop("h", None)
+    raw["numerics"]["h_over_dx"] = H_OVER_DX
+    return raw
+
+
+def physics(theta0, Re, nx, raw=None):
+    """k, h and the predicted limits of one (theta_0, Re, N_x)."""
+    raw = raw or base_raw()
+    L, rho_s = raw["domain"]["L"], raw["material"]["rho_s"]
+    V_w = raw.get("walls", {}).get("V_w", 1.0)
+    k = abs(V_w) * L * rho_s / (Re * theta0)
+    h = H_OVER_DX * L / nx
+    lim = config.dt_limits(h, theta0, rho_s, k, 8.76, -1.183, abs(V_w))
+    term = min(lim, key=lim.get)
+    # Not part of the predicted limit: the paper integrator's first-order velocity
+    # update amplifies an acoustic mode by |lambda|^2 = 1 - nu kappa^2 dt + (c kappa dt)^2 / 2
+    # per step, which viscosity damps only for dt < 2 nu / c^2 (docs/stability.md).
+    nu = k * theta0 / rho_s
+    c2 = modulus(theta0) / rho_s
+    return k, h, lim, term, 2.0 * nu / c2
+
+
+def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, extra=(), integrator="paper"):
+    raw = base_raw()
+    k, h, lim, term, _ = physics(theta0, Re, nx, raw)
+    dt = multiple * lim[term]
+    over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}",
+            f"domain.Ly={LY_IN_H * h!r}", f"numerics.dt={dt!r}", "numerics.allow_unstable_dt=true",
+            f"output.t_end={steps * dt!r}", "output.times=[]", "output.progress_interval=0",
+            "checks.every=1", f"checks.theta_change={theta_frac!r}", "checks.energy=true",
+            f'numerics.integrator="{integrator}"', *extra]
+    config.apply_overrides(raw, over)
+    return config.build(raw, config.dumps(raw))
+
+
+class Probe(Simulation):
+    """The solver with every check also recorded criterion by criterion."""
+
+    def __init__(self, cfg, comm, theta_frac):
+        super().__init__(cfg, comm)
+        self.theta_frac = theta_frac
+        self.first = {c: -1 for c in CRITERIA}
+        self.max_theta_dev = 0.0
+        self.max_ke_ratio = 0.0
+        self.max_speed_ratio = 0.0
+
+    def measure(self):
+        """(criteria violated now, theta deviation, KE ratio, speed ratio) of the owned fluid."""
+        ps, cfg = self.ps, self.cfg
+        n = ps.n_own
+        fl = ps.kind[:n] == FLUID
+        pos, vel, acc, theta, m = ps.pos[:n][fl], ps.vel[:n][fl], ps.acc[:n][fl], ps.theta[:n][fl], ps.mass[:n][fl]
+        with np.errstate(all="ignore"):
+            nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all() and np.isfinite(acc).all())
+            wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > cfg.L)).any())
+            dev = float(np.nanmax(np.abs(theta - cfg.theta0)) / cfg.theta0) if theta.size else 0.0
+            if not np.isfinite(theta).all():
+                dev = math.inf
+            ke = 0.5 * float((m * (vel ** 2).sum(axis=1)).sum())
+            bound = 0.5 * float(m.sum()) * cfg.V_w ** 2
+            ke_ratio = ke / bound if math.isfinite(ke) else math.inf
+            speed = float(np.sqrt((vel ** 2).sum(axis=1)).max()) / abs(cfg.V_w)
+            speed = speed if math.isfinite(speed) else math.inf
+        now = {"nonfinite": nonfinite, "wall": wall, "theta": not dev <= self.theta_frac,
+               "energy": not ke_ratio <= 1.0}
+        return now, dev, ke_ratio, speed
+
+    def check(self):
+        now, dev, ke_ratio, speed = self.measure()
+        for c in CRITERIA:
+            if now[c] and self.first[c] < 0:
+                self.first[c] = self.step
+        self.max_theta_dev = max(self.max_theta_dev, dev)
+        self.max_ke_ratio = max(self.max_ke_ratio, ke_ratio)
+        self.max_speed_ratio = max(self.max_speed_ratio, speed)
+        super().check()
+
+
+GUARD_NAMES = {"non-finite": "nonfinite", "crossed a wall": "wall", "volume fraction": "theta",
+               "kinetic energy": "energy"}
+
+
+def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, source="grid", integrator="paper"):
+    """Run one case; return its CSV row (dict)."""
+    cfg = case_config(theta0, Re, nx, multiple, steps, theta_frac, integrator=integrator)
+    k, h, lim, term, dt_ac = physics(theta0, Re, nx)
+    sim = Probe(cfg, MPI.COMM_SELF, theta_frac)
+    guard = crash = message = ""
+    t0 = time.perf_counter()
+    try:
+        with np.errstate(all="ignore"):
+            sim.run()
+    except GuardError as e:
+        message = str(e)
+        guard = next((v for kk, v in GUARD_NAMES.items() if kk in message), "other")
+    except Exception as e:  # noqa: BLE001 - anything else is a finding (the guard missed it)
+        crash = type(e).__name__
+        message = f"{type(e).__name__}: {e}"
+    wall_s = time.perf_counter() - t0
+    fired = [c for c in CRITERIA if sim.first[c] >= 0]
+    stable = not fired and not crash and not guard
+    err_max = err_rms = math.nan
+    if stable:
+        err_max, err_rms = sim.profile()["err"]
+    first = min(fired, key=lambda c: (sim.first[c], CRITERIA.index(c))) if fired else (crash or guard)
+    return {
+        "nx": nx, "theta0": theta0, "Re": Re, "k": k, "multiple": multiple, "dt": cfg.dt,
+        "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
+        "dt_acoustic_damping": dt_ac, "steps_planned": cfg.nsteps, "steps_done": sim.step,
+        "t_done": sim.t, "stable": int(stable), "first_failure": first,
+        "fail_step": -1 if stable else sim.step,
+        **{f"{c}_step": sim.first[c] for c in CRITERIA},
+        "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
+        "max_speed_ratio": sim.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
+        "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3), "source": source,
+        "integrator": integrator,
+    }
+
+
+# ---- the grid ------------------------------------------------------------------------------------
+def grid(nxs, quick=False):
+    if quick:
+        return [(t, r, 50, m) for t in (0.05, 0.7) for r in (57.0, 2000.0) for m in (0.5, 1.0, 4.0)]
+    cases = []
+    for nx in nxs:
+        for t in THETAS:
+            for r in RES:
+                if nx == 200 and (t not in SUBSET_200["theta0"] or r not in SUBSET_200["Re"]):
+                    continue
+                cases += [(t, r, nx, m) for m in MULTS]
+    return cases
+
+
+def key_of(row):
+    return (int(row["nx"]), round(float(row["theta0"]), 6), round(float(row["Re"]), 6),
+            round(float(row["multiple"]), 9))
+
+
+def load_rows(path):
+    if not os.path.exists(path):
+        return []
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+class Results:
+    """The CSV of one integrator's runs; a run already in it is not repeated."""
+
+    def __init__(self, path, integrator="paper"):
+        self.path = path
+        self.integrator = integrator
+        self.rows = load_rows(path)
+        self.done = {key_of(r): r for r in self.rows}
+
+    def get(self, theta0, Re, nx, multiple, source="grid"):
+        key = (nx, round(theta0, 6), round(Re, 6), round(multiple, 9))
+        if key in self.done:
+            return self.done[key]
+        row = run_case(theta0, Re, nx, multiple, source=source, integrator=self.integrator)
+        new = not os.path.exists(self.path)
+        header = FIELDS
+        if not new:
+            with open(self.path, newline="") as f:
+                header = next(csv.reader(f))
+        with open(self.path, "a", newline="") as f:
+            w = csv.DictWriter(f, header, extrasaction="ignore")  # the file names the integrator
+            if new:
+                w.writeheader()
+            w.writerow(row)
+        row = {k: str(v) for k, v in row.items()}
+        self.rows.append(row)
+        self.done[key] = row
+        verdict = "stable  " if row["stable"] == "1" else f"UNSTABLE ({row['first_failure']} at step {row['fail_step']})"
+        print(f"Nx={nx:3d} theta0={theta0:<5g} Re={Re:<6g} dt/limit={multiple:<8.4g} {verdict}  "
+              f"[{float(row['wall_s']):.1f} s]", flush=True)
+        return row
+
+
+# ---- verdicts: a time-step instability, or a failure at a fixed physical time ----------------------
+def column(rows, nx, theta0, Re):
+    """The runs of one (N_x, theta_0, Re) column, sorted by multiple."""
+    sel = [r for r in rows if int(r["nx"]) == nx and abs(float(r["theta0"]) - theta0) < 1e-9
+           and abs(float(r["Re"]) - Re) < 1e-9]
+    return sorted(sel, key=lambda r: float(r["multiple"]))
+
+
+def physical_time(col, m_ratio=1.08, t_tol=0.05):
+    """(t, criterion) when two failing runs of the column, >= m_ratio apart in dt, failed by the same
+    criterion within t_tol of the same physical time; else None.
+
+    A time-step instability fails later at a smaller dt (its growth per unit time falls with dt);
+    a failure that comes at the same time whatever dt is set by the flow itself (the physics or
+    the spatial resolution). Crashes count as time-step failures.
+    """
+    bad = [r for r in col if r["stable"] == "0" and not r["crash"]]
+    for i, a in enumerate(bad):
+        for b in bad[i + 1:]:
+            ma, mb, ta, tb = float(a["multiple"]), float(b["multiple"]), float(a["t_done"]), float(b["t_done"])
+            if (mb / ma >= m_ratio and a["first_failure"] == b["first_failure"]
+                    and abs(tb / ta - 1.0) <= t_tol):
+                return 0.5 * (ta + tb), a["first_failure"]
+    return None
+
+
+def verdict(row, phys, t_tol=0.1):
+    """'stable', 'physical' (failed at the column's physical failure time) or 'dt'."""
+    if row["stable"] == "1":
+        return "stable"
+    if phys and not row["crash"] and row["first_failure"] == phys[1] \
+            and abs(float(row["t_done"]) / phys[0] - 1.0) <= t_tol:
+        return "physical"
+    return "dt"
+
+
+def dt_bounds(col):
+    """(largest multiple with no time-step failure at or below it, smallest with one)."""
+    phys = physical_time(col)
+    lo = hi = None
+    for r in col:
+        v, m = verdict(r, phys), float(r["multiple"])
+        if v == "dt":
+            hi = m
+            break
+        lo = m
+    return lo, hi
+
+
+def refine(res, theta0, Re, nx=50, tol=1.1, span=64.0, max_runs=12):
+    """Bisect the column's time-step limit (failures at the physical failure time do not count)."""
+    for m in MULTS:
+        res.get(theta0, Re, nx, m)
+    for _ in range(max_runs):
+        lo, hi = dt_bounds(column(res.rows, nx, theta0, Re))
+        if lo is None:                                   # fails at the smallest multiple: go down
+            m = (hi or MULTS[0]) / 4
+            if m < 1 / span:
+                break
+        elif hi is None:                                 # no failure up to here: go up
+            m = lo * 2
+            if m > span:
+                break
+        elif hi / lo > tol:
+            m = math.sqrt(lo * hi)
+        else:
+            break
+        res.get(theta0, Re, nx, m, source="refine")
+    return dt_bounds(column(res.rows, nx, theta0, Re))
+
+
+def long_checks(res, out_dir, nx=50, ratio=2.0, extend=1.3, tol=0.1):
+    """Confirm each physical failure time: run half the smallest such multiple to 1.3x that time.
+
+    A time-step instability would fail later there or not at all; the verdict is ``physical``
+    when it fails within ``tol`` of the same time. Rows go to stability_long.csv.
+    """
+    path = os.path.join(out_dir, "stability_long.csv")
+    done = {(round(float(r["theta0"]), 6), round(float(r["Re"]), 6)): r for r in load_rows(path)}
+    out = []
+    for t in THETAS:
+        for Re in RES:
+            col = column(res.rows, nx, t, Re)
+            phys = physical_time(col)
+            if phys is None:
+                continue
+            key = (round(t, 6), round(Re, 6))
+            if key in done:
+                out.append(done[key])
+                continue
+            m = min(float(r["multiple"]) for r in col if verdict(r, phys) == "physical")
+            lim = float(col[0]["dt_limit"])
+            steps = int(math.ceil(extend * phys[0] / (m / ratio * lim)))
+            row = run_case(t, Re, nx, m / ratio, steps=steps, source="long")
+            ok = not row["stable"] and abs(row["t_done"] / phys[0] - 1.0) <= tol
+            row.update({"t_phys": phys[0], "criterion_phys": phys[1], "confirmed": int(ok)})
+            new = not os.path.exists(path)
+            with open(path, "a", newline="") as f:
+                w = csv.DictWriter(f, FIELDS + ["t_phys", "criterion_phys", "confirmed"], extrasaction="ignore")
+                if new:
+                    w.writeheader()
+                w.writerow(row)
+            print(f"long check theta0={t:g} Re={Re:g}: failures by {phys[1]} at t = {phys[0]:.4g} s; "
+                  f"dt/limit = {m / ratio:.3g} to {steps} steps: {row['first_failure'] or 'stable'} at "
+                  f"t = {row['t_done']:.4g} s -> {'confirmed' if ok else 'NOT confirmed'}", flush=True)
+            out.append({k: str(v) for k, v in row.items()})
+    return out
+
+
+# ---- figures -----------------------------------------------------------------------------------------
+MARK = {"nonfinite": ("X", "tab:red"), "wall": ("v", "tab:purple"), "theta": ("s", "tab:orange"),
+        "energy": ("^", "tab:red")}
+
+
+def measured_limits(rows, nx):
+    """{(theta0, Re): (lo, hi)} of dt_bounds for every column at nx."""
+    keys = {(float(r["theta0"]), float(r["Re"])) for r in rows if int(r["nx"]) == nx}
+    return {k: dt_bounds(column(rows, nx, *k)) for k in keys}
+
+
+def plot(rows, outdir, nx_list, tag=""):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    figs = []
+    for nx in nx_list:
+        sel = [r for r in rows if int(r["nx"]) == nx]
+        if not sel:
+            continue
+        res_here = sorted({float(r["Re"]) for r in sel})
+        fig, axes = plt.subplots(1, len(res_here), figsize=(2.9 * len(res_here) + 0.6, 4.4), sharey=True,
+                                 squeeze=False)
+        lims = measured_limits(rows, nx)
+        for ax, Re in zip(axes[0], res_here):
+            ts = sorted({float(r["theta0"]) for r in sel if float(r["Re"]) == Re})
+            for t in ts:
+                col = column(rows, nx, t, Re)
+                phys = physical_time(col)
+                for r in col:
+                    m, v = float(r["multiple"]), verdict(r, phys)
+                    fill = "full" if r["source"] == "grid" else "none"
+                    if v == "stable":
+                        ax.plot(t, m, "o", color="tab:green", ms=5, fillstyle=fill)
+                    elif v == "physical":
+                        ax.plot(t, m, "D", color="tab:gray", ms=5, fillstyle=fill)
+                    elif r["crash"]:
+                        ax.plot(t, m, "P", color="k", ms=6, fillstyle=fill)
+                    else:
+                        mk, c = MARK.get(r["first_failure"], ("D", "k"))
+                        ax.plot(t, m, mk, color=c, ms=6, fillstyle=fill)
+            mx = [(t, math.sqrt(lims[(t, Re)][0] * lims[(t, Re)][1])) for t in ts
+                  if lims.get((t, Re), (None, None))[0] and lims[(t, Re)][1]]
+            if mx:
+                ax.plot(*zip(*mx), "-", color="k", lw=1.2)
+            tt = np.linspace(0.05, 0.7, 60)
+            ac = [physics(t, Re, nx)[4] / min(physics(t, Re, nx)[2].values()) for t in tt]
+            ax.plot(tt, ac, ":", color="tab:blue", lw=1.2)
+            ax.axhline(1.0, color="tab:gray", lw=1.5, ls="--")
+            ax.set_yscale("log", base=2)
+            ax.set_ylim(1 / 80, 80)
+            ax.set_xlim(0.0, 0.75)
+            ax.set_title(f"Re = {Re:g}", fontsize=10)
+            ax.set_xlabel(r"$\theta_0$")
+            ax.grid(alpha=0.3, which="major")
+        axes[0][0].set_ylabel("dt / predicted limit")
+        handles = [Line2D([], [], marker="o", ls="", color="tab:green", label="stable (2,000 steps)"),
+                   Line2D([], [], marker="^", ls="", color="tab:red", label="unstable: energy"),
+                   Line2D([], [], marker="s", ls="", color="tab:orange", label="unstable: theta"),
+                   Line2D([], [], marker="X", ls="", color="tab:red", label="unstable: non-finite"),
+                   Line2D([], [], marker="v", ls="", color="tab:purple", label="unstable: wall"),
+                   Line2D([], [], marker="P", ls="", color="k", label="crash (no guard)"),
+                   Line2D([], [], marker="D", ls="", color="tab:gray", label="fails at a fixed time, any dt"),
+                   Line2D([], [], marker="o", ls="", color="tab:gray", fillstyle="none", label="bisection run"),
+                   Line2D([], [], ls="--", color="tab:gray", label="predicted limit"),
+                   Line2D([], [], ls="-", color="k", label="measured limit"),
+                   Line2D([], [], ls=":", color="tab:blue", label=r"$2\nu/c^2$")]
+        fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=7.5, frameon=False)
+        what = f"{tag} integrator, " if tag else ""
+        fig.suptitle(f"Couette stability, N_x = {nx}, {what}{STEPS} steps of a fixed dt = multiple x predicted limit",
+                     fontsize=10)
+        fig.tight_layout(rect=(0, 0.1, 1, 0.95))
+        png = os.path.join(outdir, f"stability_map{'_' + tag if tag else ''}_nx{nx}.png")
+        fig.savefig(png, dpi=80)
+        plt.close(fig)
+        figs.append(png)
+    if tag:
+        return figs
+
+    # measured stable dt [s] against the predicted limit, per theta_0 (N_x = 50)
+    lims = measured_limits(rows, 50)
+    if lims:
+        res_here = sorted({k[1] for k in lims})
+        fig, ax = plt.subplots(figsize=(7.2, 4.8))
+        colors = plt.cm.viridis(np.linspace(0, 0.9, len(res_here)))
+        for col, Re in zip(colors, res_here):
+            ts = sorted(t for t, r in lims if r == Re)
+            tt = np.linspace(min(ts), max(ts), 80)
+            ax.plot(tt, [min(physics(t, Re, 50)[2].values()) for t in tt], "--", color=col, lw=1)
+            pts = [(t, lims[(t, Re)][0] * min(physics(t, Re, 50)[2].values())) for t in ts
+                   if lims[(t, Re)][0] is not None]
+            if pts:
+                ax.plot(*zip(*pts), "o-", color=col, ms=4, label=f"Re = {Re:g}")
+        ax.set_yscale("log")
+        ax.set_xlabel(r"$\theta_0$")
+        ax.set_ylabel("dt [s]")
+        ax.set_title("Largest dt without a time-step failure in 2,000 steps (points)\n"
+                     "against the predicted limit (dashed), N_x = 50, paper integrator", fontsize=9)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3, which="both")
+        fig.tight_layout()
+        png = os.path.join(outdir, "stability_dt.png")
+        fig.savefig(png, dpi=80)
+        plt.close(fig)
+        figs.append(png)
+    return figs
+
+
+def summary(rows, nx=50, title=""):
+    """Text table: per (theta_0, Re) the predicted limit and the measured time-step limit."""
+    lines = [f"N_x = {nx}{title}: measured dt / predicted limit, last without a time-step failure .. first with one",
+             f"{'theta0':>6} {'Re':>6} {'term':>8} {'limit [s]':>10} {'ok<=':>7} {'fail>=':>7} "
+             f"{'2nu/c^2/lim':>11}  first time-step failure; fixed-time failure"]
+    keys = sorted({(float(r["theta0"]), float(r["Re"])) for r in rows if int(r["nx"]) == nx})
+    for t, Re in keys:
+        col = column(rows, nx, t, Re)
+        lo, hi = dt_bounds(col)
+        phys = physical_time(col)
+        k, h, lim, term, ac = physics(t, Re, nx)
+        f = lambda v: "-" if v is None else f"{v:.3g}"  # noqa: E731
+        first = next((r for r in col if float(r["multiple"]) == hi), None) if hi else None
+        how = f"{first['first_failure']} at step {first['fail_step']}" if first else ""
+        if phys:
+            how += f"; {phys[1]} at t = {phys[0]:.3g} s whatever dt"
+        lines.append(f"{t:>6g} {Re:>6g} {term:>8} {lim[term]:>10.3g} {f(lo):>7} {f(hi):>7} {ac / lim[term]:>11.3g}  {how}")
+    return "\n".join(lines)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default=str(ROOT / "results" / "stability"), help="results directory")
+    ap.add_argument("--nx", default=",".join(map(str, NXS)), help="comma-separated N_x of the grid")
+    ap.add_argument("--refine", action="store_true", help="bisect the measured limit of each N_x = 50 column")
+    ap.add_argument("--long", action="store_true",
+                    help="confirm the failures at a fixed physical time with a longer run at half the dt")
+    ap.add_argument("--quick", action="store_true", help="12 runs only (smoke test)")
+    ap.add_argument("--plot-only", action="store_true", help="redraw from the CSV")
+    ap.add_argument("--integrator", default="paper", choices=("paper", "midpoint"),
+                    help="time integrator (midpoint: its own CSV, the dense corner only)")
+    a = ap.parse_args(argv)
+    os.makedirs(a.out, exist_ok=True)
+    if a.integrator == "midpoint":
+        return main_midpoint(a)
+    res = Results(os.path.join(a.out, "stability_map.csv"))
+    nxs = [int(x) for x in a.nx.split(",") if x]
+    if not a.plot_only:
+        for t, r, nx, m in grid(nxs, a.quick):
+            res.get(t, r, nx, m)
+        if a.refine:
+            for t in THETAS:
+                for r in RES:
+                    lo, hi = refine(res, t, r)
+                    print(f"refined theta0={t:g} Re={r:g}: no time-step failure <= {lo}, one at {hi}", flush=True)
+        if a.long:
+            long_checks(res, a.out)
+    for png in plot(res.rows, a.out, sorted({int(r["nx"]) for r in res.rows})):
+        print(f"wrote {png}")
+    print(f"wrote {write_merged(a.out)}")
+    text = "\n\n".join(summary(res.rows, nx) for nx in sorted({int(r["nx"]) for r in res.rows}))
+    print(text)
+    with open(os.path.join(a.out, "summary.txt"), "w") as f:
+        f.write(text + "\n")
+    return 0
+
+
+def write_merged(out_dir):
+    """One CSV of every run (both integrators, bisection and long runs) with each row's verdict."""
+    parts = [("stability_map.csv", "paper"), ("stability_map_midpoint.csv", "midpoint"),
+             ("stability_long.csv", "paper")]
+    extra = ["integrator", "verdict", "t_phys", "criterion_phys", "confirmed"]
+    merged = []
+    for name, integrator in parts:
+        rows = load_rows(os.path.join(out_dir, name))
+        for r in rows:
+            col = column(rows, int(r["nx"]), float(r["theta0"]), float(r["Re"]))
+            phys = physical_time(col) if r["source"] != "long" else (float(r["t_phys"]), r["criterion_phys"])
+            merged.append({**r, "integrator": integrator, "verdict": verdict(r, phys)})
+    path = os.path.join(out_dir, "stability_all.csv")
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, FIELDS + extra, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(merged)
+    return path
+
+
+MIDPOINT = {"theta0": (0.5, 0.6, 0.64, 0.7), "Re": (10.0, 57.0, 400.0, 2000.0), "multiple": (0.5, 1.0, 2.0)}
+
+
+def main_midpoint(a):
+    """The dense, weakly damped corner again with the second-order integrator (same criteria)."""
+    res = Results(os.path.join(a.out, "stability_map_midpoint.csv"), integrator="midpoint")
+    if not a.plot_only:
+        for t in MIDPOINT["theta0"]:
+            for r in MIDPOINT["Re"]:
+                for m in MIDPOINT["multiple"]:
+                    res.get(t, r, 50, m)
+    for png in plot(res.rows, a.out, [50], tag="midpoint"):
+        print(f"wrote {png}")
+    text = summary(res.rows, 50, ", midpoint integrator")
+    print(text)
+    with open(os.path.join(a.out, "summary_midpoint.txt"), "w") as f:
+        f.write(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
