@@ -205,7 +205,7 @@ def _fits_in_memory(comm, cfg):
 def _existing(out_dir, stem):
     """(file name, output index) of the run's outputs in out_dir, unfinished ones too."""
     import re
-    pat = re.compile(re.escape(stem) + r"_(\d{4})\.h5(\.part)?$")
+    pat = re.compile(re.escape(stem) + r"_(\d{4,})\.h5(\.part)?$")
     return sorted((f, int(m.group(1))) for f in os.listdir(out_dir) if (m := pat.match(f)))
 
 

@@ -62,8 +62,8 @@ class SlabRing:
         P = self.size
         if Ly / P < halo_width * (1 - 1e-12):
             raise DecompositionError(
-                f"{P} slabs of Ly = {Ly:g} m are {Ly / P:g} m wide, thinner than the support "
-                f"2h = {halo_width:g} m: use at most {max_ranks(Ly, halo_width)} ranks or Ly >= {P * halo_width:g} m")
+                f"{P} slabs of Ly = {Ly:g} m are {Ly / P:g} m wide, thinner than the halo "
+                f"{halo_width:g} m (the support 2h, plus h/4 with the midpoint integrator): use at most {max_ranks(Ly, halo_width)} ranks or Ly >= {P * halo_width:g} m")
         self.bounds = slab_bounds(Ly, P)
         self.lo, self.hi = self.bounds[self.rank], self.bounds[self.rank + 1]
         self.left = (self.rank - 1) % P

@@ -196,11 +196,12 @@ class Output:
 def output_files(path):
     """Complete output files of a run: ``path`` is a directory or one output file."""
     if os.path.isdir(path):
-        files = [f for f in glob.glob(os.path.join(path, "*_[0-9][0-9][0-9][0-9].h5"))]
-        stems = {re.sub(r"_\d{4}\.h5$", "", os.path.basename(f)) for f in files}
+        files = [f for f in glob.glob(os.path.join(path, "*_[0-9][0-9][0-9][0-9]*.h5"))
+                 if re.search(r"_\d{4,}\.h5$", f)]
+        stems = {re.sub(r"_\d{4,}\.h5$", "", os.path.basename(f)) for f in files}
         if len(stems) > 1:
             raise ValueError(f"{path} holds outputs of several runs ({', '.join(sorted(stems))}); name one file")
-        return sorted(files)
+        return sorted(files, key=lambda f: int(re.search(r"_(\d{4,})\.h5$", f).group(1)))
     if os.path.isfile(path):
         return [path]
     raise FileNotFoundError(path)
