@@ -1,0 +1,187 @@
+"""Bad run files and options: exit code 2 and one stderr line naming the key, no traceback.
+
+Every case runs the real CLI (``python -m parsph run FILE --out DIR``) as a subprocess; the
+subprocesses of the module start together (a few at a time) in one fixture, since each one
+spends most of its second starting Python and MPI.
+"""
+import re
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+
+from conftest import PAPER_TOML, run_cli
+
+PAPER = PAPER_TOML.read_text()
+
+
+def edit(pattern, repl):
+    """The paper run file with one line changed (``pattern`` must match exactly once)."""
+    text, n = re.subn(pattern, repl, PAPER, flags=re.M)
+    assert n == 1, pattern
+    return text
+
+
+# name: (run-file text or None for the paper file, extra CLI args, strings the message must contain)
+CASES = {
+    "unknown_key": (edit(r"^Nx = 50$", "Nx = 50\nNz = 3"), [], ["numerics.Nz", "unknown key"]),
+    "unknown_section": (PAPER + "\n[bogus]\nx = 1\n", [], ["bogus", "unknown section"]),
+    "string_for_number": (edit(r"^L = 0.01 ", 'L = "0.01" '), [], ["domain.L", "number"]),
+    "float_for_Nx": (edit(r"^Nx = 50$", "Nx = 50.0"), [], ["numerics.Nx", "integer"]),
+    "bool_for_number": (edit(r"^rho_s = 2000.0 ", "rho_s = true "), [], ["material.rho_s", "number"]),
+    "L_zero": (edit(r"^L = 0.01 ", "L = 0 "), [], ["domain.L", "positive"]),
+    "L_negative": (edit(r"^L = 0.01 ", "L = -1 "), [], ["domain.L", "positive"]),
+    "h_zero": (edit(r"^h = 2.5e-4 ", "h = 0.0 "), [], ["numerics.h", "positive"]),
+    "Ly_negative": (edit(r"^Ly = 0.01 ", "Ly = -0.01 "), [], ["domain.Ly", "positive"]),
+    "layers_short": (edit(r"^V_w = 1.0 ", "layers = 1\nV_w = 1.0 "), [], ["walls.layers", "support"]),
+    "dt_unstable": (edit(r"^dt = 1.0e-5 ", "dt = 1e-4 "), [],
+                    ["numerics.dt", "stability limit", "4.46e-05"]),
+    "missing_required": (edit(r"^k = 1.0 .*$", ""), [], ["material.k", "missing"]),
+    "invalid_toml": (edit(r"^L = 0.01 ", "L = = 0.01 "), [], ["bad.toml", "TOML"]),
+    "theta0_one": (edit(r"^theta0 = 0.35$", "theta0 = 1.0"), [], ["material.theta0"]),
+    "theta0_above_one": (edit(r"^theta0 = 0.35$", "theta0 = 1.5"), [], ["material.theta0"]),
+    "theta0_string": (edit(r"^theta0 = 0.35$", 'theta0 = "dense"'), [], ["material.theta0"]),
+    "kernel_unknown": (edit(r'^kernel = "cubic_spline"$', 'kernel = "gaussian"'), [],
+                       ["numerics.kernel", "cubic_spline"]),
+    "h_and_h_over_dx": (edit(r"^h = 2.5e-4 ", "h_over_dx = 1.25\nh = 2.5e-4 "), [], ["numerics.h"]),
+    "times_after_end": (edit(r"^t_end = 0.5$", "t_end = 0.05"), [], ["output.times"]),
+    "set_unknown_key": (None, ["--set", "numerics.foo=1"], ["numerics.foo", "unknown key"]),
+    "set_unknown_section": (None, ["--set", "nosuch.x=1"], ["nosuch"]),
+    "set_bad_type": (None, ["--set", "numerics.Nx=fifty"], ["numerics.Nx", "integer"]),
+    "set_no_equals": (None, ["--set", "numerics.Nx"], ["numerics.Nx"]),
+    "nonexistent_file": ("MISSING", [], ["no_such_run.toml", "cannot read"]),
+    "existing_output": ("EXISTING", [], ["couette_paper_0000.h5", "exists", "--force"]),
+    # output.check_every moved to [checks] every: the old key is now unknown
+    "old_check_every": (None, ["--set", "output.check_every=5"], ["output.check_every", "unknown key"]),
+    "checks_every_zero": (None, ["--set", "checks.every=0"], ["checks.every", "at least 1"]),
+    "checks_theta_change_negative": (None, ["--set", "checks.theta_change=-0.1"],
+                                     ["checks.theta_change", "positive"]),
+    "checks_energy_not_bool": (None, ["--set", "checks.energy=1"], ["checks.energy", "true or false"]),
+    "integrator_unknown": (None, ["--set", "numerics.integrator=rk4"], ["numerics.integrator", "midpoint"]),
+    "viscosity_form_unknown": (None, ["--set", "numerics.viscosity_form=mean"],
+                               ["numerics.viscosity_form", "symmetric"]),
+    "dt_string": (None, ["--set", "numerics.dt=fast"], ["numerics.dt", "number"]),
+    "pressure_form_unknown": (None, ["--set", "numerics.pressure_form=exact"],
+                              ["numerics.pressure_form", "consistent"]),
+}
+
+
+@pytest.fixture(scope="module")
+def results(tmp_path_factory):
+    base = tmp_path_factory.mktemp("bad_runs")
+    jobs = {}
+    for name, (text, extra, _) in CASES.items():
+        out = base / f"out_{name}"
+        if text is None:
+            path = PAPER_TOML
+        elif text == "MISSING":
+            path = base / "no_such_run.toml"
+        elif text == "EXISTING":
+            path = PAPER_TOML
+            out.mkdir()
+            (out / "couette_paper_0000.h5").write_bytes(b"")  # an earlier run's first output
+        else:
+            path = base / name / "bad.toml"
+            path.parent.mkdir()
+            path.write_text(text)
+        jobs[name] = ["run", str(path), "--out", str(out), "--quiet", *extra]
+    # the positive control: a valid override runs (10 steps) and writes its output
+    ok_out = base / "ok"
+    jobs["valid_override"] = ["run", str(PAPER_TOML), "--out", str(ok_out), "--quiet",
+                              "--set", "output.t_end=1e-4", "--set", "output.times=[1e-4]"]
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        futures = {name: pool.submit(run_cli, *args, timeout=120) for name, args in jobs.items()}
+        res = {name: f.result() for name, f in futures.items()}
+    res["_ok_out"] = ok_out
+    res["_existing"] = base / "out_existing_output" / "couette_paper_0000.h5"
+    return res
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_bad_input(results, name):
+    rc, out, err = results[name]
+    assert rc == 2, (rc, out, err)
+    assert "Traceback" not in err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("parsph: error: ")
+    for s in CASES[name][2]:
+        assert s in lines[0], (s, lines[0])
+    assert out.strip() == ""  # nothing announced for a run that does not start
+
+
+def test_existing_output_left_alone(results):
+    """The refused run did not touch the existing output."""
+    rc, _, _ = results["existing_output"]
+    assert rc == 2
+    f = results["_existing"]
+    assert f.is_file() and f.stat().st_size == 0
+
+
+def test_valid_override_runs(results):
+    rc, out, err = results["valid_override"]
+    assert rc == 0, err
+    assert "Traceback" not in err
+    assert "10 steps" in out
+    # one file per output time: the single output (t = 1e-4 s) is output 0000, complete (renamed)
+    files = sorted(p.name for p in results["_ok_out"].iterdir())
+    assert files == ["couette_paper.xdmf", "couette_paper_0000.h5"], files
+
+
+def test_set_overrides_change_config(paper_cfg):
+    base = paper_cfg()
+    cfg = paper_cfg("numerics.Nx=20", "numerics.h=6.25e-4", "material.k=0.5",
+                    "numerics.kernel=wendland_c2", "output.times=[0.01, 0.02]")
+    assert (base.Nx, cfg.Nx) == (50, 20)
+    assert cfg.dx == pytest.approx(5e-4, rel=1e-12)
+    assert cfg.h == pytest.approx(6.25e-4, rel=1e-12)
+    assert cfg.layers == 3  # ceil(2h / dx) = ceil(2.5)
+    assert cfg.nu == pytest.approx(0.5 * 0.35 / 2000.0, rel=1e-12)
+    assert cfg.kernel == "wendland_c2"
+    assert cfg.output_times == (0.01, 0.02)
+    assert tuple(round(t / cfg.dt) for t in cfg.output_times) == (1000, 2000)  # output steps
+    assert cfg.mass == pytest.approx(2000.0 * 0.35 * 5e-4 ** 2, rel=1e-12)
+    # the stored run file carries the overrides
+    assert "Nx = 20" in cfg.text and "k = 0.5" in cfg.text
+    # and the original is untouched by a later load
+    assert paper_cfg().Nx == 50
+
+
+def test_config_error_names_key(paper_cfg):
+    from parsph.config import ConfigError
+    with pytest.raises(ConfigError) as e:
+        paper_cfg("numerics.dt=1e-4")
+    assert e.value.key == "numerics.dt"
+    with pytest.raises(ConfigError) as e:
+        paper_cfg("walls.layers=2")  # 2 dx = 4e-4 m < 2h = 5e-4 m
+    assert e.value.key == "walls.layers"
+    # allow_unstable_dt lets the same dt through
+    cfg = paper_cfg("numerics.dt=1e-4", "numerics.allow_unstable_dt=true")
+    assert cfg.dt == 1e-4
+
+
+def test_checks_section(paper_cfg):
+    """Run-time checks live in [checks] (defaults: every 20 steps, theta within 50%, energy bound on)."""
+    cfg = paper_cfg()
+    assert cfg.get("checks.every") == 20
+    assert cfg.get("checks.theta_change") == 0.5
+    assert cfg.get("checks.energy") is True
+    cfg = paper_cfg("checks.every=5", "checks.theta_change=0.2", "checks.energy=false")
+    assert (cfg.get("checks.every"), cfg.get("checks.theta_change"), cfg.get("checks.energy")) == (5, 0.2, False)
+    assert "[checks]" in cfg.text and "every = 5" in cfg.text
+    from parsph.config import ConfigError
+    with pytest.raises(ConfigError) as e:
+        paper_cfg("output.check_every=5")
+    assert e.value.key == "output.check_every"
+
+
+def test_numerics_options(paper_cfg):
+    """integrator, viscosity_form and dt = "auto" are validated and stored."""
+    base = paper_cfg()
+    assert base.integrator == "paper" and base.get("numerics.viscosity_form") == "paper"
+    assert base.get("numerics.pressure_form") == "paper"
+    assert not base.dt_auto
+    cfg = paper_cfg("numerics.integrator=midpoint", "numerics.viscosity_form=symmetric",
+                    'numerics.dt="auto"', "numerics.dt_safety=0.5")
+    assert cfg.integrator == "midpoint" and cfg.get("numerics.viscosity_form") == "symmetric"
+    assert cfg.dt_auto
+    assert cfg.dt == pytest.approx(0.5 * min(cfg.limits.values()), rel=1e-12)

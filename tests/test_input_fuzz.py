@@ -1,0 +1,543 @@
+"""Property-based tests of run-file validation (hypothesis), in process and on the command line.
+
+    .venv/bin/python -m pytest -q tests/test_input_fuzz.py
+
+Properties:
+
+* In process (``parsph.config``: what ``load`` / ``loads`` do after reading
+  the file: ``build(raw, dumps(raw))``): whatever a run file holds (any TOML
+  type in any key, missing and unknown keys and sections, NaN, +-inf, zero,
+  negative, subnormal, huge and non-64-bit numbers, several bad keys at once,
+  random text, random ``--set`` overrides), validation either returns a
+  RunConfig with sane derived values whose run-file text parses back to the
+  same values (a restart re-reads it), or raises ConfigError whose ``key``
+  names the culprit, in a one-line ``"key: reason"`` message. Any other
+  exception (OverflowError, ZeroDivisionError, TypeError, ...) is a bug.
+  A wrong type, a non-finite or out-of-range value, a missing required key
+  or an unknown key must name exactly that key.
+* On the command line (``parsph run``, 1 rank and ``mpirun -n 2``): exit
+  code 2, exactly one stderr line ``parsph: error: ...`` naming the key,
+  no traceback, within a bounded time; ``numerics.Nx = 10**7`` is refused
+  with a memory estimate before anything is allocated (under an 8 GB
+  address-space limit); a missing output directory is created; one that
+  cannot be written is exit 2. Subprocesses run under an 8 GB RLIMIT_AS.
+
+Hypothesis runs derandomized (the same examples every time, no example
+database written). Cases: the 9 hypothesis properties allow 2 950 examples
+(``max_examples`` below); a property that finds a bug stops early and
+shrinks. Run of 2026-11-22 (with the overflow bugs present): 2 144
+hypothesis examples, plus 12 extreme-number regressions, 4 fixed
+documents, 17 command-line cases on 1 rank and 4 under ``mpirun -n 2``:
+2 181 in all. ``test_report_case_counts`` prints the counts with ``-s``.
+"""
+import copy
+import math
+import os
+import resource
+import shutil
+import sys
+import tempfile
+import tomllib
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+hypothesis = pytest.importorskip("hypothesis")
+from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
+import common as C  # noqa: E402
+
+from parsph import config  # noqa: E402
+from parsph.config import REQUIRED, SCHEMA, ConfigError  # noqa: E402
+
+BASE_TEXT = C.PAPER.read_text()
+BASE = tomllib.loads(BASE_TEXT)
+ALL_KEYS = [(s, k) for s, keys in SCHEMA.items() for k in keys]
+NUMERIC_KEYS = [(s, k) for s, k in ALL_KEYS if SCHEMA[s][k].kind in ("float", "int", "float_or_auto", "floatlist")]
+COUNTS = Counter()
+
+
+def fuzz_settings(n):
+    return settings(max_examples=n, derandomize=True, database=None, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
+                                           HealthCheck.data_too_large])
+
+
+# ---- strategies ---------------------------------------------------------------------------
+
+SPECIAL_NUMBERS = [0, 0.0, -0.0, -1, 1, 2, 3, 5e-324, 2.2250738585072014e-308, 1e-300, 1e-30, 1e-12,
+                   1e30, 1e300, 1.7976931348623157e308, 10 ** 7, 10 ** 9, 2 ** 62, 2 ** 63 - 1, -(2 ** 63),
+                   10 ** 19, 10 ** 400, -10 ** 400, math.nan, math.inf, -math.inf]
+numbers = st.one_of(
+    st.sampled_from(SPECIAL_NUMBERS),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(min_value=-10.0, max_value=10.0),
+    st.integers(min_value=-(2 ** 64), max_value=2 ** 64),
+    st.integers(min_value=-5, max_value=200),
+)
+datetimes = st.one_of(st.datetimes(), st.dates(), st.times())
+scalars = st.one_of(st.booleans(), numbers, st.text(max_size=12), datetimes,
+                    st.sampled_from(["auto", "couette", "cubic_spline", "wendland_c2", "paper", "midpoint",
+                                     "symmetric", "true", "1e-5", "", "nan"]))
+values = st.recursive(scalars, lambda c: st.lists(c, max_size=3) | st.dictionaries(st.text(min_size=1, max_size=4),
+                                                                                       c, max_size=2),
+                      max_leaves=6)
+# printable key names (a name with a line break is test_a_key_name_with_a_line_break_stays_on_one_line)
+PRINTABLE = st.characters(blacklist_categories=("Cc", "Cs", "Zl", "Zp"))
+key_names = st.text(PRINTABLE, min_size=1, max_size=12)
+
+
+def _wrong(kind):
+    """Values of the wrong type for a schema kind."""
+    not_numbers = st.one_of(st.text(max_size=8).filter(lambda s: s != "auto"), st.booleans(), datetimes,
+                            st.lists(numbers, max_size=2), st.dictionaries(st.text(min_size=1, max_size=3),
+                                                                           numbers, max_size=2))
+    if kind in ("float", "float_or_auto"):
+        return not_numbers
+    if kind == "int":
+        return st.one_of(not_numbers, st.floats(allow_nan=True, allow_infinity=True))
+    if kind == "str":
+        return st.one_of(numbers, st.booleans(), datetimes, st.lists(st.text(max_size=3), max_size=2),
+                         st.dictionaries(st.text(min_size=1, max_size=3), st.text(max_size=3), max_size=2))
+    if kind == "bool":
+        return st.one_of(numbers, st.text(max_size=6), datetimes, st.lists(st.booleans(), max_size=2))
+    if kind == "floatlist":
+        bad_item = st.one_of(st.text(max_size=4), st.booleans(), datetimes, st.just(math.nan), st.just(math.inf),
+                             st.just(-math.inf), st.lists(numbers, max_size=2))
+        return st.one_of(numbers, st.text(max_size=6), st.booleans(), datetimes,
+                         st.tuples(st.lists(st.floats(0, 0.5), max_size=2), bad_item,
+                                   st.lists(st.floats(0, 0.5), max_size=2)).map(lambda t: [*t[0], t[1], *t[2]]))
+    raise AssertionError(kind)
+
+
+# ---- the property -------------------------------------------------------------------------------
+
+def base():
+    return copy.deepcopy(BASE)
+
+
+def validate_raw(raw):
+    """config.loads after tomllib: the text is written before validation, as there."""
+    text = config.dumps(raw)
+    return config.build(raw, text)
+
+
+def outcome(raw, what):
+    """Validate ``raw``: a checked RunConfig, or a ConfigError with a one-line 'key: reason' message.
+
+    Any other exception is a bug: it propagates (hypothesis shrinks and reports it).
+    """
+    COUNTS[what] += 1
+    try:
+        cfg = validate_raw(raw)
+    except ConfigError as e:
+        assert isinstance(e.key, str) and e.key, repr(e.key)
+        msg = str(e)
+        assert "\n" not in msg and msg.startswith(f"{e.key}: ") and e.reason, repr(msg)
+        return e
+    check_config(cfg)
+    return cfg
+
+
+def finite_positive(x):
+    return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
+
+
+def check_config(cfg):
+    """An accepted run has usable derived quantities, and its run-file text reads back the same."""
+    for name in ("L", "Ly", "dx", "dy", "h", "t_end", "rho_s", "theta0"):
+        assert finite_positive(getattr(cfg, name)), f"accepted run with {name} = {getattr(cfg, name)!r}"
+    assert isinstance(cfg.Nx, int) and cfg.Nx >= 2 and isinstance(cfg.Ny, int) and cfg.Ny >= 1
+    assert isinstance(cfg.Nz, int) and cfg.Nz >= 1 and finite_positive(cfg.dz)
+    assert isinstance(cfg.layers, int) and (cfg.layers >= 1 if cfg.scene.walls else cfg.layers == 0)
+    assert isinstance(cfg.n_particles, int) and cfg.n_particles >= 1
+    assert isinstance(cfg.nsteps, int) and cfg.nsteps >= 1
+    assert cfg.dt > 0 and not math.isnan(cfg.dt), cfg.dt
+    if not cfg.dt_auto:
+        assert math.isfinite(cfg.dt)
+    assert not math.isnan(cfg.mass) and not math.isnan(cfg.k)
+    assert all(0 <= t <= cfg.t_end * (1 + 1e-12) for t in cfg.output_times)
+    again = config.loads(cfg.text)  # what a restart does with the run_file attribute
+    assert again.values == cfg.values, "the run file text does not read back to the same values"
+
+
+def name_of(section, key):
+    return f"{section}.{key}"
+
+
+# ---- in-process properties ---------------------------------------------------------------------
+
+@fuzz_settings(600)
+@given(st.lists(st.tuples(st.sampled_from(ALL_KEYS), st.one_of(values, numbers)), min_size=1, max_size=3))
+def test_any_values_in_any_keys(changes):
+    raw = base()
+    for (s, k), v in changes:
+        raw.setdefault(s, {})[k] = v
+    outcome(raw, "any value in any key")
+
+
+@fuzz_settings(600)
+@given(st.lists(st.tuples(st.sampled_from(NUMERIC_KEYS), numbers), min_size=1, max_size=3))
+def test_any_numbers_in_numeric_keys(changes):
+    """Extreme numbers alone or together: a ConfigError or a usable run, never an arithmetic crash."""
+    raw = base()
+    for (s, k), v in changes:
+        raw.setdefault(s, {})[k] = [v, v] if SCHEMA[s][k].kind == "floatlist" else v
+    outcome(raw, "numbers in numeric keys")
+
+
+@fuzz_settings(300)
+@given(st.data())
+def test_a_wrong_type_names_its_key(data):
+    s, k = data.draw(st.sampled_from(ALL_KEYS))
+    v = data.draw(_wrong(SCHEMA[s][k].kind))
+    raw = base()
+    raw.setdefault(s, {})[k] = v
+    e = outcome(raw, "wrong type")
+    assert isinstance(e, ConfigError), f"{name_of(s, k)} = {v!r} accepted"
+    assert e.key == name_of(s, k), f"{name_of(s, k)} = {v!r}: the error names {e.key!r}: {e}"
+
+
+def _violates(spec, v):
+    """Whether a number breaks the key's own constraints (finite, sign, bounds, choices)."""
+    if not math.isfinite(v):
+        return True
+    if spec.choices and v not in spec.choices:
+        return True
+    return ((spec.positive and not v > 0) or (spec.nonnegative and not v >= 0)
+            or (spec.lo is not None and not v >= spec.lo) or (spec.hi is not None and not v < spec.hi))
+
+
+@fuzz_settings(300)
+@given(st.data())
+def test_an_out_of_range_number_names_its_key(data):
+    """NaN, +-inf, zero or negative where positive, below lo, at or above hi: ConfigError on that key."""
+    s, k = data.draw(st.sampled_from([sk for sk in NUMERIC_KEYS if SCHEMA[sk[0]][sk[1]].kind != "floatlist"]))
+    spec = SCHEMA[s][k]
+    if spec.kind == "int":
+        v = data.draw(st.one_of(st.integers(-(2 ** 63), 2 ** 63 - 1), st.sampled_from([-1, 0, 1, 2, 3])))
+    else:
+        v = data.draw(st.one_of(st.sampled_from([math.nan, math.inf, -math.inf, 0.0, -0.0, -1e-300, -1.0, 1.0,
+                                                 1.0 + 1e-12, 0.999999]),
+                                st.floats(allow_nan=True, allow_infinity=True)))
+    hypothesis.assume(_violates(spec, v))
+    raw = base()
+    raw.setdefault(s, {})[k] = v
+    e = outcome(raw, "out of range")
+    assert isinstance(e, ConfigError), f"{name_of(s, k)} = {v!r} accepted"
+    assert e.key == name_of(s, k), f"{name_of(s, k)} = {v!r}: the error names {e.key!r}: {e}"
+
+
+@fuzz_settings(200)
+@given(st.sets(st.sampled_from([(s, k) for s in BASE for k in BASE[s]] + [(s, None) for s in BASE]), min_size=1))
+def test_missing_keys(removed):
+    raw = base()
+    for s, k in removed:
+        if k is None:
+            raw.pop(s, None)
+        else:
+            raw.get(s, {}).pop(k, None)
+    gone = {(s, k) for s, keys in SCHEMA.items() for k in keys if k not in raw.get(s, {})}
+    required = [(s, k) for s, k in ALL_KEYS if SCHEMA[s][k].default is REQUIRED and (s, k) in gone]
+    res = outcome(raw, "missing keys")
+    if required:
+        assert isinstance(res, ConfigError), f"accepted without {required}"
+        assert res.key == name_of(*required[0]), (required, res.key, str(res))
+        assert "missing" in res.reason
+    elif ("numerics", "h") in gone:
+        assert isinstance(res, ConfigError) and res.key == "numerics.h", res
+    else:
+        assert not isinstance(res, ConfigError), f"removing {sorted(removed, key=str)} gave {res}"
+
+
+@fuzz_settings(300)
+@given(st.data())
+def test_unknown_keys_and_sections(data):
+    raw = base()
+    case = data.draw(st.sampled_from(["key", "section", "not_a_table"]))
+    if case == "key":
+        s = data.draw(st.sampled_from(list(SCHEMA)))
+        k = data.draw(key_names.filter(lambda x: x not in SCHEMA[s]))
+        raw.setdefault(s, {})[k] = data.draw(st.one_of(numbers, st.text(max_size=5), st.booleans()))
+        expect = name_of(s, k)
+    elif case == "section":
+        s = data.draw(key_names.filter(lambda x: x not in SCHEMA))
+        raw[s] = data.draw(st.one_of(st.dictionaries(key_names, st.one_of(numbers, st.booleans()), max_size=2),
+                                     numbers, st.text(max_size=5)))
+        expect = s
+    else:
+        s = data.draw(st.sampled_from(list(SCHEMA)))
+        raw[s] = data.draw(st.one_of(numbers, st.text(max_size=5), st.booleans(), st.lists(numbers, max_size=2)))
+        expect = s
+    e = outcome(raw, "unknown key or section")
+    assert isinstance(e, ConfigError), f"{case} {s!r} accepted"
+    assert e.key == expect, f"{case}: the error names {e.key!r}, not {expect!r}: {e}"
+
+
+@fuzz_settings(300)
+@given(st.one_of(st.text(max_size=200),
+                 st.lists(st.sampled_from(BASE_TEXT.splitlines() + ["[numerics]", "Nx = 1e400", "dt = nan",
+                                                                    "k = inf", "[[output]]", "x.y = 1",
+                                                                    "material = 3", "t_end = 1979-05-27"]),
+                          max_size=30).map("\n".join)))
+def test_random_text(text):
+    COUNTS["random text"] += 1
+    try:
+        cfg = config.loads(text)
+    except ConfigError as e:
+        assert "\n" not in str(e) and e.key, repr(str(e))
+        return
+    check_config(cfg)
+
+
+@fuzz_settings(300)
+@given(st.lists(st.one_of(
+    st.text(PRINTABLE, max_size=30),
+    st.tuples(st.sampled_from([*SCHEMA, "scene.name", "x", ""]), st.sampled_from([k for _, k in ALL_KEYS] + ["y", ""]),
+              st.one_of(st.text(PRINTABLE, max_size=12), st.sampled_from(["nan", "inf", "-inf", "1e400", "10000000", "[]",
+                                                               "[1, 2]", "[nan]", "true", "\"auto\"", "auto",
+                                                               "{a = 1}", "1979-05-27", "0", "-1", "[0.1, \"a\"]"])))
+    .map(lambda t: f"{t[0]}.{t[1]}={t[2]}")), min_size=1, max_size=3))
+def test_random_overrides(overrides):
+    COUNTS["--set overrides"] += 1
+    try:
+        cfg = config.loads(BASE_TEXT, overrides)
+    except ConfigError as e:  # the key of a malformed override is the override as given (may be "")
+        assert "\n" not in str(e) and str(e).startswith(f"{e.key}: "), repr(str(e))
+        return
+    check_config(cfg)
+
+
+@fuzz_settings(50)
+@given(st.binary(max_size=300))
+def test_random_bytes_as_a_run_file(blob):
+    COUNTS["random bytes file"] += 1
+    with tempfile.TemporaryDirectory() as d:
+        path = os.path.join(d, "run.toml")
+        with open(path, "wb") as f:
+            f.write(blob)
+        try:
+            config.load(path)
+        except ConfigError as e:
+            assert "\n" not in str(e) and e.key, repr(str(e))
+
+
+# Extreme numbers found by the properties above (each crashed build() with the exception named);
+# every one must be a ConfigError naming one of the keys listed.
+EXTREME = {
+    "t_end_int_beyond_float": ({"output": {"t_end": 10 ** 400}}, {"output.t_end"}),  # OverflowError in _typed
+    "Nx_int_beyond_float": ({"numerics": {"Nx": 10 ** 400}}, {"numerics.Nx"}),  # OverflowError: L / Nx
+    "layers_int_beyond_float": ({"walls": {"layers": 10 ** 400}}, {"walls.layers"}),  # OverflowError
+    "L_subnormal": ({"domain": {"L": 5e-324}}, {"domain.L", "numerics.Nx"}),  # ZeroDivisionError: Ly / dx
+    "Ly_huge": ({"domain": {"Ly": 1.7976931348623157e308}}, {"domain.Ly"}),  # OverflowError: round(inf)
+    "Lz_huge_3d": ({"scene": {"dim": 3}, "domain": {"Lz": 1.7976931348623157e308}}, {"domain.Lz"}),
+    "g_int_beyond_float": ({"body_force": {"g": [0, 10 ** 400]}}, {"body_force.g"}),  # isfinite(int)
+    "h_huge": ({"numerics": {"h": 1.7976931348623157e308}}, {"numerics.h", "walls.layers", "domain.Ly"}),
+    "G_a_huge": ({"material": {"G_a": 1e30}}, {"material.G_a", "material.G_b"}),  # OverflowError: 10.0 ** x
+    "G_b_huge": ({"material": {"G_b": 1e7}}, {"material.G_a", "material.G_b"}),
+    "dt_subnormal": ({"numerics": {"dt": 2.2e-311}}, {"numerics.dt", "output.t_end"}),  # round(t_end / dt = inf)
+    "t_end_huge": ({"output": {"t_end": 1e308}}, {"output.t_end", "numerics.dt"}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXTREME))
+def test_extreme_numbers_are_config_errors(case):
+    changes, keys = EXTREME[case]
+    raw = base()
+    for s, kv in changes.items():
+        raw.setdefault(s, {}).update(kv)
+    try:
+        res = outcome(raw, "extreme numbers")
+    except Exception as e:  # noqa: BLE001 - report the crash precisely
+        pytest.fail(f"{changes}: {type(e).__name__}: {e} (expected ConfigError naming one of {sorted(keys)})")
+    assert isinstance(res, ConfigError), f"{changes} accepted"
+    assert res.key in keys, f"{changes}: the error names {res.key!r}: {res}"
+
+
+def test_a_key_name_with_a_line_break_stays_on_one_line():
+    """TOML allows any quoted key, line breaks included; the message must stay one line (repr the name)."""
+    for raw in ({**base(), "a\nb": {}}, {**base(), "material": {**BASE["material"], "x\ny": 1}}):
+        with pytest.raises(ConfigError) as e:
+            validate_raw(raw)
+        COUNTS["key with a line break"] += 1
+        assert "\n" not in str(e.value), repr(str(e.value))
+    with pytest.raises(ConfigError) as e:  # parsph run --set $'material.k\n=1'
+        config.loads(BASE_TEXT, ["material.k\n=1"])
+    assert "\n" not in str(e.value), repr(str(e.value))
+
+
+def test_nan_and_inf_in_the_toml_text_name_the_key():
+    """The TOML spellings nan / inf reach the same checks as Python's floats."""
+    for key, section, text in (("numerics.dt", "numerics", "dt = nan"), ("material.k", "material", "k = inf"),
+                               ("output.times", "output", "times = [0.01, -inf]")):
+        lines = [ln for ln in BASE_TEXT.splitlines() if not ln.startswith(text.split(" ")[0] + " ")]
+        doc = "\n".join(lines).replace(f"[{section}]", f"[{section}]\n{text}")
+        with pytest.raises(ConfigError) as e:
+            config.loads(doc)
+        assert e.value.key == key, str(e.value)
+        COUNTS["spelled nan/inf"] += 1
+
+
+# ---- on the command line --------------------------------------------------------------------
+
+launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
+RLIMIT_AS = 8 * 2 ** 30  # a run that allocates before refusing fails (exit 1) instead of swapping the machine
+SMALL = ("output.t_end=0.0001", "output.times=[0.0001]", "domain.Ly=0.002")
+
+
+def _limit():
+    resource.setrlimit(resource.RLIMIT_AS, (RLIMIT_AS, RLIMIT_AS))
+
+
+def run_limited(cmd, timeout=90, prefix=()):
+    import subprocess
+    import time
+    t0 = time.monotonic()
+    p = subprocess.Popen([*prefix, *map(str, cmd)], cwd=C.REPO, env=C.env(), stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True, preexec_fn=_limit)
+    try:
+        out, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        C.kill_tree(p.pid)
+        out, err = p.communicate()
+        raise AssertionError(f"no answer within {timeout} s:\n{out}\n{err}") from None
+    return C.Result(p.returncode, out, err, time.monotonic() - t0)
+
+
+def _without(text, section, key):
+    out, current = [], None
+    for ln in text.splitlines():
+        if ln.startswith("["):
+            current = ln.strip("[] ")
+        if current == section and ln.split("=")[0].strip() == key:
+            continue
+        out.append(ln)
+    return "\n".join(out) + "\n"
+
+
+def _with(text, section, line):
+    return text.replace(f"[{section}]", f"[{section}]\n{line}", 1)
+
+
+def _replace(text, section, key, value):
+    return _with(_without(text, section, key), section, f"{key} = {value}")
+
+
+# name: (run-file text, extra args, key the message must name, a word of the reason)
+BAD_FILES = {
+    "wrong_type": (_replace(BASE_TEXT, "material", "k", '"one"'), [], "material.k", "number"),
+    "nan": (_replace(BASE_TEXT, "numerics", "dt", "nan"), [], "numerics.dt", "finite"),
+    "zero_Nx": (_replace(BASE_TEXT, "numerics", "Nx", "0"), [], "numerics.Nx", "at least"),
+    "unknown_key": (_with(BASE_TEXT, "numerics", "nx = 50"), [], "numerics.nx", "unknown"),
+    "missing_key": (_without(BASE_TEXT, "material", "rho_s"), [], "material.rho_s", "missing"),
+    "inf_t_end": (_replace(BASE_TEXT, "output", "t_end", "inf"), [], "output.t_end", "finite"),
+    "huge_Nx": (_replace(BASE_TEXT, "numerics", "Nx", "10000000"), [], "numerics.Nx", "GB"),
+    "overflow_G_a": (_replace(BASE_TEXT, "material", "G_a", "1e308"), [], "material.G_", ""),
+    "beyond_64_bit_Nx": (_replace(BASE_TEXT, "numerics", "Nx", "1" + "0" * 400), [], "numerics.Nx", ""),
+    "not_toml": ("[numerics\nNx = 50\n", [], "not valid TOML", ""),
+    "bad_set": (BASE_TEXT, ["--set", "numerics.Nx"], "numerics.Nx", "section.key=value"),
+    "bad_set_value": (BASE_TEXT, ["--set", "numerics.kernel=gauss"], "numerics.kernel", "one of"),
+}
+
+
+def check_bad(r, key, word, ranks):
+    assert "Traceback" not in r.stderr and "MPI_ABORT" not in r.stderr, r
+    assert r.returncode == 2, r
+    lines = C.parsph_lines(r.stderr)
+    assert len(lines) == 1 and lines[0].startswith("parsph: error: "), r
+    assert key in lines[0] and word in lines[0], r
+    if not ranks:  # under mpirun, Open MPI adds a banner about the non-zero exit
+        assert C.stderr_lines(r.stderr) == lines, r
+
+
+@launches
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_cli_bad_run_file(tmp_path, case):
+    text, extra, key, word = BAD_FILES[case]
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    r = run_limited(C.parsph("run", path, "--out", out, *extra))
+    COUNTS["cli 1 rank"] += 1
+    check_bad(r, key, word, 0)
+    assert r.elapsed < 60
+    assert not out.exists() or not os.listdir(out), "a refused run wrote output"
+
+
+@launches
+def test_cli_missing_run_file(tmp_path):
+    path = tmp_path / "nope.toml"
+    r = run_limited(C.parsph("run", path, "--out", tmp_path / "out"))
+    COUNTS["cli 1 rank"] += 1
+    check_bad(r, str(path), "cannot read", 0)
+
+
+@launches
+def test_cli_creates_a_missing_output_directory(tmp_path):
+    out = tmp_path / "a" / "b" / "c"
+    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", *C.sets(*SMALL)), timeout=120)
+    COUNTS["cli 1 rank"] += 1
+    assert r.returncode == 0, r
+    assert C.h5_files(out) == [f"{C.STEM}_0000.h5"], os.listdir(out)
+
+
+@launches
+def test_cli_output_path_is_a_file(tmp_path):
+    out = tmp_path / "file"
+    out.write_text("x")
+    r = run_limited(C.run_cmd(0, "--out", out, *C.sets(*SMALL)))
+    COUNTS["cli 1 rank"] += 1
+    check_bad(r, str(out), "cannot create output directory", 0)
+
+
+def _unprivileged():
+    """A command prefix under which root obeys file permissions (no CAP_DAC_OVERRIDE)."""
+    if os.geteuid() != 0:
+        return ()
+    setpriv = shutil.which("setpriv")
+    if setpriv is None:
+        pytest.skip("running as root without setpriv: cannot make a directory unwritable")
+    caps = "-dac_override,-dac_read_search"
+    return (setpriv, f"--bounding-set={caps}", f"--inh-caps={caps}")
+
+
+@launches
+@pytest.mark.parametrize("where", ["dir", "parent"])
+def test_cli_output_directory_not_writable(tmp_path, where):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    out = ro if where == "dir" else ro / "sub"
+    ro.chmod(0o555)
+    try:
+        r = run_limited(C.run_cmd(0, "--out", out, *C.sets(*SMALL)), prefix=_unprivileged())
+    finally:
+        ro.chmod(0o755)
+    COUNTS["cli 1 rank"] += 1
+    check_bad(r, str(out), "not writable" if where == "dir" else "cannot create output directory", 0)
+
+
+@launches
+@pytest.mark.parametrize("case", ["wrong_type", "huge_Nx", "overflow_G_a", "out_is_file"])
+def test_cli_bad_input_under_mpirun(tmp_path, case):
+    """Every rank ends alike: exit 2, one parsph line (from rank 0), no MPI_Abort, no hang."""
+    out = tmp_path / "out"
+    if case == "out_is_file":
+        out.write_text("x")
+        text, extra, key, word = BASE_TEXT, list(C.sets(*SMALL)), str(out), "cannot create output directory"
+    else:
+        text, extra, key, word = BAD_FILES[case]
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    r = run_limited(C.mpirun(2, C.parsph("run", path, "--out", out, *extra)), timeout=120)
+    COUNTS["cli mpirun -n 2"] += 1
+    check_bad(r, key, word, 2)
+    assert r.elapsed < 90
+
+
+def test_report_case_counts():
+    """Not a check: prints how many cases each property tried (run with -s)."""
+    for what, n in sorted(COUNTS.items()):
+        print(f"fuzz cases: {what}: {n}")
+    print(f"fuzz cases: total: {sum(COUNTS.values())}")

@@ -1,0 +1,328 @@
+"""Stopping a run: SIGINT / SIGTERM end it with a restart point; SIGKILL leaves only whole outputs.
+
+    .venv/bin/python -m pytest -q tests/test_interrupt.py
+    mpirun -n 2 .venv/bin/python -m pytest -q --with-mpi -m mpi tests/test_interrupt.py
+
+The serial tests launch real runs (1 rank, and ``mpirun -n 2``) and are
+skipped inside an mpirun job; the test marked ``mpi`` stops a run in process
+on COMM_WORLD (pytest-mpi).
+
+What Open MPI 4.1's ``mpirun`` does with a signal (measured here; it decides
+what the ranks see):
+
+* SIGINT or SIGTERM to ``mpirun``: it sends SIGCONT to the ranks at once,
+  SIGTERM one second later (``odls_base_sigkill_timeout`` = 1 s), and SIGKILL
+  after one more second to ranks still alive. So parsph sees SIGTERM even for
+  a Ctrl-C, has one second to finish its step and write the final snapshot,
+  and ``mpirun`` exits 1 (the ranks' 143 is not passed on). Measured on the
+  short box: snapshot complete 0.2 s after the ranks' SIGTERM (1.2 s after
+  the signal to mpirun); the ranks then need about 1.5 s more to exit
+  (teardown), so mpirun's SIGKILL at 2.0 s ends them after the snapshot but
+  before they exit by themselves. A step plus an output that take longer
+  than one second (large runs) would lose the final snapshot
+  (``--mca odls_base_sigkill_timeout N`` lengthens the grace). The ranks have
+  process groups of their own, so a terminal's Ctrl-C reaches only ``mpirun``.
+* SIGINT/SIGTERM sent to the ranks themselves (a batch system, ``kill``):
+  parsph exits 130 / 143 on every rank and ``mpirun`` passes the code on.
+* SIGKILL to ``mpirun``'s process group does not reach the ranks (they lived
+  about 1.5 s longer); the SIGKILL tests kill mpirun and every rank by id.
+
+Long runs: t_end = 0.5 s on the short box (50 000 steps, minutes), stopped
+after the first progress line; restarts go to t = 0.005 s only.
+"""
+import os
+import random
+import re
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
+import common as C  # noqa: E402
+
+launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
+
+LONG = (*C.SHORT, "output.t_end=0.5", "output.times=[0.01, 0.5]", "output.progress_interval=0.05")
+T_RESUME = 0.005  # restarts end here: 500 steps
+RESUME = (*C.SHORT, f"output.t_end={T_RESUME}", f"output.times=[{T_RESUME}]")
+STOPPED = re.compile(r"^parsph: (SIG[A-Z]+|signal): stopped at step (\d+), t = (\S+) s; "
+                     r"the last output is a restart point$")
+CODE = {"SIGINT": 130, "SIGTERM": 143}
+SIGNAL_TIMEOUT = 20  # seconds from the signal to the end of every process
+START_TIMEOUT = 90  # seconds to the first progress line (a cold numba cache compiles first)
+OBSERVED = []  # (case, mpirun exit code, seconds from signal to exit): printed with -s
+
+
+def name(k):
+    return f"{C.STEM}_{k:04d}.h5"
+
+
+def rank_pids(mpirun_pid):
+    """{rank: pid} of the parsph processes under mpirun (from /proc/PID/environ)."""
+    out = {}
+    for p in C.descendants(mpirun_pid):
+        try:
+            with open(f"/proc/{p}/environ", "rb") as f:
+                env = dict(kv.split(b"=", 1) for kv in f.read().split(b"\0") if b"=" in kv)
+        except OSError:
+            continue
+        if b"OMPI_COMM_WORLD_RANK" in env:
+            out[int(env[b"OMPI_COMM_WORLD_RANK"])] = p
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """An uninterrupted 1-rank run to T_RESUME: the restarts must end equal to it."""
+    d = tmp_path_factory.mktemp("interrupt_ref")
+    r = C.run(C.run_cmd(0, "--out", d, "--quiet", *C.sets(*RESUME)), timeout=180)
+    assert r.returncode == 0, r
+    return C.read_final(d / name(0))
+
+
+def interrupted_run(ranks, out, send, wait_for=None):
+    """Start a long run, wait for its first progress line, call send(live); return (result, seconds after send)."""
+    live = C.Live(C.run_cmd(ranks, "--out", out, *C.sets(*LONG)))
+    try:
+        started = live.wait_for(wait_for or (lambda: any(ln.startswith("  step") for ln in live.out)),
+                                START_TIMEOUT)
+        assert started, f"no progress line within {START_TIMEOUT} s: {live.finish(1)[0]}"
+        t_sig = time.monotonic()
+        send(live)
+        res, timed_out = live.finish(SIGNAL_TIMEOUT)
+        took = time.monotonic() - t_sig
+        assert not timed_out, f"still running {SIGNAL_TIMEOUT} s after the signal (killed):\n{res}"
+        return res, took
+    finally:
+        live.kill()
+
+
+def check_stopped(res, out, signame=None):
+    """One stop line; the final snapshot it names exists, whole, at that step. Returns the step."""
+    assert "Traceback" not in res.stderr, res
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("parsph")]
+    assert len(lines) == 1, res
+    m = STOPPED.match(lines[0])
+    assert m, f"unexpected stop message: {lines[0]!r}"
+    if signame is not None:
+        assert m.group(1) == signame, f"the message names {m.group(1)}, not {signame}: {lines[0]!r}"
+    step = int(m.group(2))
+    files = C.h5_files(out)
+    assert files == [name(0)], f"outputs after the stop: {os.listdir(out)}"
+    assert not C.h5_files(out, part=True), os.listdir(out)
+    snap = C.read_final(out / name(0))
+    assert snap["attrs"]["step"] == step, (snap["attrs"]["step"], step)
+    assert snap["attrs"]["time"] == pytest.approx(step * C.DT, rel=1e-12)
+    assert np.array_equal(snap["id"], np.arange(C.N_SHORT))
+    assert 0 < step < round(T_RESUME / C.DT), f"stopped at step {step}, beyond the restart target"
+    return step
+
+
+def resume(ranks, out, reference):
+    """--restart from the stopped run's directory to T_RESUME; equal to the uninterrupted run."""
+    r = C.run(C.run_cmd(ranks, "--restart", out, "--quiet", *C.sets(*RESUME)), timeout=180)
+    assert r.returncode == 0, r
+    assert C.h5_files(out) == [name(0), name(1)], os.listdir(out)
+    C.assert_same_particles(C.read_final(out / name(1)), reference, "stopped run continued with --restart")
+
+
+# ---- SIGINT / SIGTERM ------------------------------------------------------------------------
+
+@launches
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_signal_to_a_one_rank_run(tmp_path, reference, signame):
+    """Without mpirun: exit 130 / 143, one line naming the signal, a final snapshot; then restart."""
+    out = tmp_path / "run"
+    res, took = interrupted_run(0, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
+    OBSERVED.append((f"1 rank, {signame} to parsph", res.returncode, took))
+    assert res.returncode == CODE[signame], res
+    check_stopped(res, out, signame)
+    assert C.stderr_lines(res.stderr) == C.parsph_lines(res.stderr), res
+    resume(0, out, reference)
+
+
+@launches
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_signal_to_mpirun(tmp_path, reference, signame):
+    """SIGINT / SIGTERM to ``mpirun -n 2``: every rank finishes its step and writes the final snapshot.
+
+    mpirun turns the signal into SIGTERM to the ranks one second later and
+    SIGKILLs them one second after that: the snapshot must be written within
+    that second. mpirun's exit code is its own (1 with Open MPI 4.1): only
+    non-zero is asserted.
+    """
+    out = tmp_path / "run"
+    res, took = interrupted_run(2, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
+    OBSERVED.append((f"2 ranks, {signame} to mpirun", res.returncode, took))
+    assert res.returncode != 0, res
+    check_stopped(res, out)  # the ranks got SIGTERM from mpirun, whatever mpirun got
+    resume(2, out, reference)
+
+
+@launches
+def test_sigterm_to_every_rank(tmp_path, reference):
+    """SIGTERM to each rank (as a batch system does): exit 143 through mpirun, one line, restart works."""
+    out = tmp_path / "run"
+
+    def send(live):
+        pids = rank_pids(live.p.pid)
+        assert sorted(pids) == [0, 1], pids
+        for p in pids.values():
+            os.kill(p, C.signal.SIGTERM)
+
+    res, took = interrupted_run(2, out, send)
+    OBSERVED.append(("2 ranks, SIGTERM to each rank", res.returncode, took))
+    assert res.returncode == 143, res
+    check_stopped(res, out, "SIGTERM")
+    resume(1, out, reference)
+
+
+@launches
+def test_sigint_to_one_rank_stops_every_rank_alike(tmp_path, reference):
+    """SIGINT to the last rank only: the stop is agreed, so every rank writes, names SIGINT and exits 130.
+
+    The stop flag reaches rank 0 through the per-step all-reduce; rank 0 prints
+    the message, so the signal's name (and the exit code) must travel with it.
+    """
+    out = tmp_path / "run"
+
+    def send(live):
+        pids = rank_pids(live.p.pid)
+        assert sorted(pids) == [0, 1], pids
+        os.kill(pids[1], C.signal.SIGINT)
+
+    res, took = interrupted_run(2, out, send)
+    OBSERVED.append(("2 ranks, SIGINT to rank 1 only", res.returncode, took))
+    check_stopped(res, out, "SIGINT")
+    assert res.returncode == 130, res
+    resume(2, out, reference)
+
+
+# ---- SIGKILL ------------------------------------------------------------------------------------
+
+KILL_EVERY = 5  # steps between outputs: the kill often lands in a write
+KILLED = (*C.SHORT, "output.t_end=0.5",
+          C.times_list(np.round(np.arange(1, 2001) * KILL_EVERY * C.DT, 10)), "output.progress_interval=0")
+
+
+def check_output_file(path, index):
+    """A complete output, read with nothing but h5py: attributes, profile and full particle arrays."""
+    with h5py.File(path, "r") as f:
+        a = f.attrs
+        assert int(a["index"]) == index, (path, a["index"])
+        step = int(a["step"])
+        assert step == (index + 1) * KILL_EVERY, (path, step)
+        assert a["time"] == pytest.approx(step * C.DT, rel=1e-12)
+        assert int(a["n_particles"]) == C.N_SHORT
+        assert f["profile/vy"].shape == (50,) and np.isfinite(f["profile/vy"][()]).all()
+        g = f["particles"]
+        ids = g["id"][()]
+        assert np.array_equal(np.sort(ids), np.arange(C.N_SHORT)), f"{path}: particle ids are not 0..N-1"
+        for key, shape in (("kind", ()), ("mass", ()), ("position", (2,)), ("velocity", (2,)), ("theta", ())):
+            arr = g[key][()]
+            assert arr.shape == (C.N_SHORT, *shape), (path, key, arr.shape)
+            if arr.dtype.kind == "f":
+                assert np.isfinite(arr).all(), f"{path}: non-finite /particles/{key}"
+        assert (g["mass"][()] > 0).all() and (g["theta"][()] > 0).all(), f"{path}: unwritten (zero) particles"
+
+
+@launches
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_sigkill_leaves_only_whole_outputs(tmp_path, seed):
+    """SIGKILL to mpirun and both ranks at a random moment after the first output.
+
+    Every <stem>_NNNN.h5 left is whole; an unfinished write is at most one
+    .part file, which read_profile / last_snapshot ignore; --restart from the
+    directory continues (into a fresh --out: restarting in place over a .part
+    is test_restart.py's test_restart_in_place_ignores_an_unfinished_part_file).
+    """
+    from parsph.output import last_snapshot, output_files, read_profile
+    out = tmp_path / "run"
+    delay = random.Random(seed).uniform(0.0, 1.5)
+    live = C.Live(C.run_cmd(2, "--out", out, "--quiet", *C.sets(*KILLED)))
+    try:
+        assert live.wait_for(lambda: out.is_dir() and bool(C.h5_files(out)), START_TIMEOUT), \
+            f"no output within {START_TIMEOUT} s: {live.finish(1)[0]}"
+        time.sleep(delay)
+        assert live.p.poll() is None, "the run ended before the kill"
+        pids = C.kill_tree(live.p.pid, C.signal.SIGKILL)
+        live.finish(30)
+        end = time.monotonic() + 10
+        while C.alive(pids) and time.monotonic() < end:
+            time.sleep(0.05)
+        assert not C.alive(pids), f"processes alive after SIGKILL: {C.alive(pids)}"
+    finally:
+        live.kill()
+
+    files = C.h5_files(out)
+    parts = C.h5_files(out, part=True)
+    OBSERVED.append((f"SIGKILL seed {seed} after {delay:.2f} s", len(files), parts))
+    assert files, os.listdir(out)
+    assert [int(f[-7:-3]) for f in files] == list(range(len(files))), f"a gap in the outputs: {files}"
+    for k, f in enumerate(files):
+        check_output_file(out / f, k)
+    assert len(parts) <= 1 and all(int(p[-12:-8]) == len(files) for p in parts), \
+        f"unfinished files other than the next output: {parts}"
+
+    # the readers see the complete outputs only
+    assert [os.path.basename(f) for f in output_files(out)] == files
+    assert len(read_profile(out)["time"]) == len(files)
+    assert os.path.basename(last_snapshot(out)) == files[-1]
+
+    # and a restart from the directory continues
+    last = C.read_final(out / files[-1])
+    t_end = round((int(last["attrs"]["step"]) + 20) * C.DT, 10)
+    fresh = tmp_path / "continued"
+    r = C.run(C.run_cmd(1 + seed % 2, "--restart", out, "--out", fresh, "--quiet",
+                        *C.sets(*C.SHORT, f"output.t_end={t_end!r}", f"output.times=[{t_end!r}]")), timeout=120)
+    assert r.returncode == 0, r
+    new = f"{C.STEM}_{len(files):04d}.h5"
+    assert C.h5_files(fresh) == [new], os.listdir(fresh)
+    with h5py.File(fresh / new, "r") as f:
+        assert int(f.attrs["step"]) == int(last["attrs"]["step"]) + 20
+
+
+def test_print_observations():
+    """Not a check: prints what the signal tests saw (run with -s)."""
+    for row in OBSERVED:
+        print("observed:", row)
+
+
+# ---- in process on COMM_WORLD (pytest-mpi) -------------------------------------------------
+
+@pytest.mark.mpi
+def test_stop_requested_on_one_rank_in_process(mpi_tmp_path):
+    """A stop seen by the last rank only: every rank writes the final snapshot and raises Interrupted."""
+    from mpi4py import MPI
+    from parsph import config
+    from parsph.output import Output, read_snapshot, read_state
+    from parsph.solver import Interrupted, Simulation
+    comm = MPI.COMM_WORLD
+    ly = max(10, 4 * comm.size) * 2e-4
+    cfg = config.load(C.PAPER, [f"domain.Ly={ly!r}", "output.t_end=0.0003", "output.times=[0.0003]"])
+    a, b = mpi_tmp_path / "stopped", mpi_tmp_path / "uninterrupted"
+    if comm.rank == 0:
+        a.mkdir()
+        b.mkdir()
+    comm.Barrier()
+
+    sim = Simulation(cfg, comm)
+    with pytest.raises(Interrupted, match=r"stopped at step 7,"):
+        sim.run(output=Output(comm, str(a), C.STEM, cfg, sim.n_total),
+                stop_requested=lambda: comm.rank == comm.size - 1 and sim.step >= 7)
+    comm.Barrier()
+    assert sorted(os.listdir(a)) == [f"{C.STEM}.xdmf", name(0)]
+    state = read_state(str(a / name(0)))
+    assert int(state["attrs"]["step"]) == 7
+
+    sim2 = Simulation(cfg, comm, state=state)
+    sim2.run(output=Output(comm, str(a), C.STEM, cfg, sim2.n_total, first_index=1))
+    ref = Simulation(cfg, comm)
+    ref.run(output=Output(comm, str(b), C.STEM, cfg, ref.n_total))
+    comm.Barrier()
+    C.assert_same_particles(read_snapshot(str(a / name(1))), read_snapshot(str(b / name(0))),
+                            f"stopped and continued on {comm.size} rank(s)")
