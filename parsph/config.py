@@ -23,7 +23,7 @@ class ConfigError(Exception):
     """A bad run file: ``key`` names the offending key."""
 
     def __init__(self, key, reason):
-        shown = key if key.isprintable() else repr(key)
+        shown = repr(key) if len((key + ".").splitlines()) > 1 else key  # one line, always
         super().__init__(f"{shown}: {reason}")
         self.key = key
         self.reason = reason
@@ -303,8 +303,8 @@ def build(raw, text):
         raise ConfigError("numerics.h", "give exactly one of numerics.h and numerics.h_over_dx")
     h = num["h"] if num["h"] is not None else num["h_over_dx"] * dx
     hkey = "numerics.h" if num["h"] is not None else "numerics.h_over_dx"
-    if not (math.isfinite(h) and 0 < h / dx <= 100):
-        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is outside (0, 100]")
+    if not (math.isfinite(h) and 0 < h / dx <= 1e6):
+        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is out of range")
     for key, length in (("domain.Ly", Ly), ("domain.Lz", dom["Lz"] or Ly)):
         if not length / dx <= 2 ** 40:
             raise ConfigError(key, f"{length:g} m holds more than 2^40 particle rows of dx = {dx:g} m")
