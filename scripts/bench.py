@@ -130,7 +130,7 @@ def reference(sim, repeat=20):
     out = np.zeros(n)
     ax, ay = np.zeros(n), np.zeros(n)
     sinv_th, sinv_rho = 1.0 / W.stheta[:n], 1.0 / W.srho[:n]
-    args = (n, W.sx, W.sy, W.svx, W.svy, W.sm, W.stheta, sinv_th, W.shalf_G, sinv_rho,
+    args = (n, W.sx, W.sy, W.svx, W.svy, W.sm, W.stheta, sinv_th, W.spress, sinv_rho,
             W.nbr_start, W.nbr_j, W.nbr_f, -1.0 / cfg.rho_s ** 2, cfg.k, ax, ay)
     dargs = (n, W.sx, W.sy, W.sm, W.cell_of, start, ncx, ncy, cfg.h, sim.norm, out)
     result = {}
