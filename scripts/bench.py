@@ -166,6 +166,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0):
         sim.advance(cfg.dt)
     comm.Barrier()
     wall = time.perf_counter() - t0
+    phases = {k: comm.allreduce(sim.timers.get(k, 0.0), op=MPI.MAX) / steps for k in PHASES}
     # a second, shorter pass with every numba call timed: the rest is Python and MPI
     clock = NumbaClock()
     clock.install()
@@ -178,7 +179,6 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0):
     clock.remove()
     outside = comm.allreduce((wall2 - clock.seconds) / wall2, op=MPI.MAX)
     cpu = comm.allreduce(time.process_time() - c0, op=MPI.SUM)
-    phases = {k: comm.allreduce(sim.timers.get(k, 0.0), op=MPI.MAX) / steps for k in PHASES}
     pairs = comm.allreduce(int(sim.work.nbr_start[sim.ps.n]), op=MPI.SUM)
     rss = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, op=MPI.SUM)
     ref = reference(sim)
