@@ -1,0 +1,57 @@
+"""Run a run file through the parsph CLI on one rank, in this process, and report its errors and cost.
+
+    nice -n 10 .venv/bin/python scripts/sweep_preset.py run/couette_fast.toml [--out DIR]
+
+The numbers quoted in the comments of run/couette_*.toml come from here: the
+error table of the run's output files, the process CPU time of the whole
+command (imports, numba cache load, set-up, time loop, HDF5 output with
+snapshots) and of the time loop alone (the CLI's "done:" line gives its wall
+time; the loop's CPU time is measured around it here), and wall time.
+"""
+import argparse
+import contextlib
+import io
+import os
+import sys
+import time
+
+T0_CPU, T0_WALL = time.process_time(), time.perf_counter()
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("config")
+    ap.add_argument("--out", help="output directory (default results/presets/<name>)")
+    args = ap.parse_args()
+    name = os.path.splitext(os.path.basename(args.config))[0]
+    out = args.out or os.path.join(ROOT, "results", "presets", name)
+    from parsph import cli, solver
+    from parsph.output import read_profile
+    loop = {}
+    run = solver.Simulation.run
+
+    def timed_run(self, *a, **k):  # CPU time of the time loop alone
+        c0 = time.process_time()
+        try:
+            return run(self, *a, **k)
+        finally:
+            loop["cpu"] = time.process_time() - c0
+            loop["steps"] = self.step
+    solver.Simulation.run = timed_run
+    text = io.StringIO()
+    with contextlib.redirect_stdout(text):
+        rc = cli.main(["run", args.config, "--out", out, "--force", "--quiet"])
+    cpu, wall = time.process_time() - T0_CPU, time.perf_counter() - T0_WALL
+    print(text.getvalue())
+    prof = read_profile(out)
+    print(f"{name}: exit {rc}, {prof['attrs']['n_particles']} particles, {loop.get('steps')} steps; "
+          f"process CPU {cpu:.1f} s (time loop {loop.get('cpu', float('nan')):.1f} s), wall {wall:.1f} s")
+    for t, e, r in zip(prof["time"], prof["err_max"], prof["err_rms"]):
+        print(f"  t = {t:g} s: max {e:.2e}, rms {r:.2e}")
+    return rc
+
+
+if __name__ == "__main__":
+    sys.exit(main())
