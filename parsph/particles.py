@@ -9,11 +9,6 @@ import numpy as np
 from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
-KIND_NAMES = {FLUID: "fluid", WALL: "fixed wall", MOVING_WALL: "moving wall"}
-
-# Fields that travel with a particle (migration, halo, output); acc and rho
-# are recomputed every step.
-STATE_FIELDS = ("gid", "kind", "mass", "pos", "vel")
 
 
 class Particles:
