@@ -27,8 +27,12 @@ what the ranks see):
 * SIGKILL to ``mpirun``'s process group does not reach the ranks (they lived
   about 1.5 s longer); the SIGKILL tests kill mpirun and every rank by id.
 
-Long runs: t_end = 0.5 s on the short box (50 000 steps, minutes), stopped
-after the first progress line; restarts go to t = 0.005 s only.
+Long runs: t_end = 0.5 s on the short box (50 000 steps, minutes), with no
+output before the end, stopped after the first progress line. How many steps
+run before the ranks see the signal depends on the machine (mpirun waits one
+second: 800 to 1 400 steps were seen), so each restart goes to a time just
+past the step where its run stopped and is compared with an uninterrupted
+1-rank run to that same time.
 """
 import os
 import random
@@ -46,9 +50,8 @@ import common as C  # noqa: E402
 
 launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
 
-LONG = (*C.SHORT, "output.t_end=0.5", "output.times=[0.01, 0.5]", "output.progress_interval=0.05")
-T_RESUME = 0.005  # restarts end here: 500 steps
-RESUME = (*C.SHORT, f"output.t_end={T_RESUME}", f"output.times=[{T_RESUME}]")
+LONG = (*C.SHORT, "output.t_end=0.5", "output.times=[0.5]", "output.progress_interval=0.05")
+RESUME_STEPS = 100  # a restart runs this many steps past the stop
 STOPPED = re.compile(r"^parsph: (SIG[A-Z]+|signal): stopped at step (\d+), t = (\S+) s; "
                      r"the last output is a restart point$")
 CODE = {"SIGINT": 130, "SIGTERM": 143}
@@ -75,13 +78,21 @@ def rank_pids(mpirun_pid):
     return out
 
 
+def resume_sets(step):
+    """Run-file overrides that end a run RESUME_STEPS steps after ``step``."""
+    t_end = round((step + RESUME_STEPS) * C.DT, 10)
+    return C.sets(*C.SHORT, f"output.t_end={t_end!r}", f"output.times=[{t_end!r}]")
+
+
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    """An uninterrupted 1-rank run to T_RESUME: the restarts must end equal to it."""
-    d = tmp_path_factory.mktemp("interrupt_ref")
-    r = C.run(C.run_cmd(0, "--out", d, "--quiet", *C.sets(*RESUME)), timeout=180)
-    assert r.returncode == 0, r
-    return C.read_final(d / name(0))
+    """reference(step): an uninterrupted 1-rank run to RESUME_STEPS past ``step`` (the restarts must equal it)."""
+    def run_to(step):
+        d = tmp_path_factory.mktemp("interrupt_ref")
+        r = C.run(C.run_cmd(0, "--out", d, "--quiet", *resume_sets(step)), timeout=300)
+        assert r.returncode == 0, r
+        return C.read_final(d / name(0))
+    return run_to
 
 
 def interrupted_run(ranks, out, send, wait_for=None):
@@ -118,16 +129,16 @@ def check_stopped(res, out, signame=None):
     assert snap["attrs"]["step"] == step, (snap["attrs"]["step"], step)
     assert snap["attrs"]["time"] == pytest.approx(step * C.DT, rel=1e-12)
     assert np.array_equal(snap["id"], np.arange(C.N_SHORT))
-    assert 0 < step < round(T_RESUME / C.DT), f"stopped at step {step}, beyond the restart target"
+    assert 0 < step < round(0.5 / C.DT), f"stopped at step {step}: the run was not stopped early"
     return step
 
 
-def resume(ranks, out, reference):
-    """--restart from the stopped run's directory to T_RESUME; equal to the uninterrupted run."""
-    r = C.run(C.run_cmd(ranks, "--restart", out, "--quiet", *C.sets(*RESUME)), timeout=180)
+def resume(ranks, out, reference, step):
+    """--restart from the stopped run's directory, RESUME_STEPS on; equal to the uninterrupted run."""
+    r = C.run(C.run_cmd(ranks, "--restart", out, "--quiet", *resume_sets(step)), timeout=300)
     assert r.returncode == 0, r
     assert C.h5_files(out) == [name(0), name(1)], os.listdir(out)
-    C.assert_same_particles(C.read_final(out / name(1)), reference, "stopped run continued with --restart")
+    C.assert_same_particles(C.read_final(out / name(1)), reference(step), "stopped run continued with --restart")
 
 
 # ---- SIGINT / SIGTERM ------------------------------------------------------------------------
@@ -140,9 +151,9 @@ def test_signal_to_a_one_rank_run(tmp_path, reference, signame):
     res, took = interrupted_run(0, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
     OBSERVED.append((f"1 rank, {signame} to parsph", res.returncode, took))
     assert res.returncode == CODE[signame], res
-    check_stopped(res, out, signame)
+    step = check_stopped(res, out, signame)
     assert C.stderr_lines(res.stderr) == C.parsph_lines(res.stderr), res
-    resume(0, out, reference)
+    resume(0, out, reference, step)
 
 
 @launches
@@ -159,8 +170,8 @@ def test_signal_to_mpirun(tmp_path, reference, signame):
     res, took = interrupted_run(2, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
     OBSERVED.append((f"2 ranks, {signame} to mpirun", res.returncode, took))
     assert res.returncode != 0, res
-    check_stopped(res, out)  # the ranks got SIGTERM from mpirun, whatever mpirun got
-    resume(2, out, reference)
+    step = check_stopped(res, out)  # the ranks got SIGTERM from mpirun, whatever mpirun got
+    resume(2, out, reference, step)
 
 
 @launches
@@ -177,8 +188,8 @@ def test_sigterm_to_every_rank(tmp_path, reference):
     res, took = interrupted_run(2, out, send)
     OBSERVED.append(("2 ranks, SIGTERM to each rank", res.returncode, took))
     assert res.returncode == 143, res
-    check_stopped(res, out, "SIGTERM")
-    resume(1, out, reference)
+    step = check_stopped(res, out, "SIGTERM")
+    resume(1, out, reference, step)
 
 
 @launches
@@ -197,9 +208,9 @@ def test_sigint_to_one_rank_stops_every_rank_alike(tmp_path, reference):
 
     res, took = interrupted_run(2, out, send)
     OBSERVED.append(("2 ranks, SIGINT to rank 1 only", res.returncode, took))
-    check_stopped(res, out, "SIGINT")
+    step = check_stopped(res, out, "SIGINT")
     assert res.returncode == 130, res
-    resume(2, out, reference)
+    resume(2, out, reference, step)
 
 
 # ---- SIGKILL ------------------------------------------------------------------------------------
