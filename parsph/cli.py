@@ -119,6 +119,15 @@ def _restart_state(cfg, path):
     return state
 
 
+def _set_threads(n):
+    """numba threads per rank for the prange loops (results do not depend on the count)."""
+    import numba
+    most = numba.config.NUMBA_NUM_THREADS
+    if not 1 <= n <= most:
+        raise UsageError(f"--threads {n}: must be between 1 and {most} (NUMBA_NUM_THREADS, default the core count)")
+    numba.set_num_threads(n)
+
+
 def _run(comm, args, say, signals):
     from . import config
     from .output import Output, output_files
@@ -156,6 +165,7 @@ def _run(comm, args, say, signals):
             raise UsageError(f"output directory {out_dir} is not writable")
 
     cfg, state, first = _agree(comm, prepare)
+    _agree(comm, lambda: _set_threads(args.threads))
     _agree(comm, lambda: _fits_in_memory(comm, cfg))
     _agree(comm, make_dir)
     _agree(comm, writable)
@@ -278,6 +288,9 @@ def build_parser():
     r.add_argument("--restart", metavar="OUTPUT",
                    help="continue from the last snapshot of OUTPUT (a directory or one output file)")
     r.add_argument("--quiet", action="store_true", help="no progress lines")
+    r.add_argument("--threads", type=int, default=1, metavar="N",
+                   help="threads per rank in the particle loops (default 1: one rank per core; "
+                        "ranks x threads should not exceed the cores)")
     c = sub.add_parser("check", help="print the error table of a run; exit 1 above --tol")
     c.add_argument("output", help="output directory or file")
     c.add_argument("--tol", type=float, default=0.02, help="largest max error / V_w accepted (default 0.02)")

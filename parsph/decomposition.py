@@ -72,6 +72,7 @@ class SlabRing:
         self._idx = {TAG_UP: np.zeros(64, np.int64), TAG_DOWN: np.zeros(64, np.int64)}
         self._nsend = {TAG_UP: 0, TAG_DOWN: 0}
         self._nrecv = {TAG_UP: 0, TAG_DOWN: 0}
+        self._status = MPI.Status()
 
     # -- buffers ------------------------------------------------------------
     def _buf(self, role, tag, rows, width):
@@ -83,17 +84,36 @@ class SlabRing:
             self._bufs[key] = buf
         return buf
 
-    def _exchange_counts(self, n_up, n_down):
-        """Send counts up and down; return counts arriving from below and from above."""
-        s = np.array([n_up, n_down], np.int64)
-        from_left = np.zeros(1, np.int64)
-        from_right = np.zeros(1, np.int64)
-        reqs = [self.comm.Irecv(from_left, source=self.left, tag=TAG_UP),
-                self.comm.Irecv(from_right, source=self.right, tag=TAG_DOWN),
-                self.comm.Isend(s[0:1], dest=self.right, tag=TAG_UP),
-                self.comm.Isend(s[1:2], dest=self.left, tag=TAG_DOWN)]
-        MPI.Request.Waitall(reqs)
-        return int(from_left[0]), int(from_right[0])
+    def _send_receive(self, width, n_up, n_down, ycol=None):
+        """Send n_up rows up and n_down rows down; receive rows of unknown number from both neighbours.
+
+        The counts travel as message sizes (MPI_Probe, then a receive of that
+        size): one round of messages instead of counts first, then rows.
+        Returns the rows from below and from above, with ``ycol`` shifted as
+        in :meth:`_exchange_rows`.
+        """
+        c = self.comm
+        sends = [c.Isend([self._buf("send", TAG_UP, n_up, width)[:n_up], MPI.DOUBLE], dest=self.right, tag=TAG_UP),
+                 c.Isend([self._buf("send", TAG_DOWN, n_down, width)[:n_down], MPI.DOUBLE],
+                         dest=self.left, tag=TAG_DOWN)]
+        got = []
+        for source, tag in ((self.left, TAG_UP), (self.right, TAG_DOWN)):
+            c.Probe(source=source, tag=tag, status=self._status)
+            rows = self._status.Get_count(MPI.DOUBLE) // width
+            buf = self._buf("recv", tag, rows, width)[:rows]
+            c.Recv([buf, MPI.DOUBLE], source=source, tag=tag)
+            got.append(buf)
+        MPI.Request.Waitall(sends)
+        return self._shift(got[0], got[1], ycol)
+
+    def _shift(self, up, down, ycol):
+        """Rows that crossed y = Ly going up (arriving at rank 0) or down (at rank P-1) get y -+ Ly."""
+        if ycol is not None:
+            if self.rank == 0:
+                up[:, ycol] -= self.Ly
+            if self.rank == self.size - 1:
+                down[:, ycol] += self.Ly
+        return up, down
 
     def _exchange_rows(self, width, n_up, n_down, n_from_left, n_from_right, ycol=None):
         """Move rows of the send buffers to the neighbours (up: right, down: left).
@@ -109,12 +129,7 @@ class SlabRing:
                 c.Isend([self._buf("send", TAG_DOWN, n_down, width)[:n_down], MPI.DOUBLE],
                         dest=self.left, tag=TAG_DOWN)]
         MPI.Request.Waitall(reqs)
-        if ycol is not None:
-            if self.rank == 0:
-                up[:, ycol] -= self.Ly
-            if self.rank == self.size - 1:
-                down[:, ycol] += self.Ly
-        return up, down
+        return self._shift(up, down, ycol)
 
     # -- halo ---------------------------------------------------------------
     def _select(self, ps, lo, hi):
@@ -132,9 +147,9 @@ class SlabRing:
         width = ps.row_width
         for tag, k in ((TAG_UP, nu), (TAG_DOWN, nd)):
             ps.pack(self._idx[tag], k, self._buf("send", tag, k, width))
-        nl, nr = self._exchange_counts(nu, nd)
+        from_left, from_right = self._send_receive(width, nu, nd, ycol=ps.ycol)
+        nl, nr = len(from_left), len(from_right)
         self._nrecv[TAG_UP], self._nrecv[TAG_DOWN] = nl, nr
-        from_left, from_right = self._exchange_rows(width, nu, nd, nl, nr, ycol=ps.ycol)
         ps.n = ps.n_own
         ps.ensure(ps.n_own + nl + nr, keep=ps.n_own)
         ps.unpack(from_left, ps.n_own)
@@ -189,8 +204,8 @@ class SlabRing:
         width = ps.row_width
         for tag, sel in ((TAG_UP, up), (TAG_DOWN, down)):
             ps.pack(sel, len(sel), self._buf("send", tag, len(sel), width))
-        nl, nr = self._exchange_counts(len(up), len(down))
-        from_left, from_right = self._exchange_rows(width, len(up), len(down), nl, nr)
+        from_left, from_right = self._send_receive(width, len(up), len(down))
+        nl, nr = len(from_left), len(from_right)
         if len(gone):
             ps.keep_owned(gone, len(gone))
         n0 = ps.n_own

@@ -22,16 +22,22 @@
 
 The loops work on copies of the particle fields in cell order (see
 :mod:`parsph.neighbours`), positions and velocities as separate x, y, z
-arrays (z = 0 in 2-D, so one code path serves both). The density pass finds
-each fluid particle's neighbours by visiting the 3^dim surrounding cells in a
-fixed order and the particles of a cell in gid order; it stores them, with
-(dW/dr)/r, in a neighbour list that the momentum pass walks in the same
-order. Every sum is thus taken in an order that does not depend on the
-decomposition. These functions know nothing of MPI: halo copies are ordinary
-neighbours.
+arrays (z = 0 in 2-D, so one code path serves both), and write their results
+straight back to the particle arrays through ``order``. The density pass
+finds each fluid particle's neighbours among the 3^dim surrounding cells:
+the three cells along x of one row are consecutive in cell order, so it walks
+3^(dim-1) contiguous runs of candidates, in a fixed order and by gid inside a
+cell, evaluating the kernel without branches (a candidate beyond 2h adds an
+exact zero). It stores the neighbours, with (dW/dr)/r, in a list of fixed
+width per particle that the momentum pass walks in the same order. Every sum
+is thus taken in an order that does not depend on the decomposition, and
+each particle's sum is independent of the others': the loops run over
+particles with ``prange`` (threads inside a rank, ``--threads``), with the
+same result bit for bit on any thread count. These functions know nothing of
+MPI: halo copies are ordinary neighbours.
 
-The switches of :func:`momentum` (pressure, viscosity, symmetric viscosity,
-walls) are compile-time constants made by :func:`switch`: an empty tuple is
+The switches (pressure, viscosity, symmetric viscosity, walls, consistent
+pressure, three dimensions) are compile-time constants made by :func:`switch`: an empty tuple is
 off, ``(1,)`` is on, so each value is its own type, numba compiles one version
 per combination a scene uses, ``len(switch)`` is a constant, and a term
 switched off leaves no branch in the pair loop. (``numba.literally`` does the
@@ -39,9 +45,9 @@ same but costs tens of milliseconds per call.)
 """
 import math
 
-from numba import njit
+from numba import njit, prange
 
-from .kernels import kernel_dwdr, kernel_w
+from .kernels import kernel_w_f
 from .particles import FLUID
 
 ON, OFF = (1,), ()
@@ -52,140 +58,178 @@ def switch(flag):
     return ON if flag else OFF
 
 
-@njit(cache=True)
-def density(n, sx, sy, sz, sm, skind, owned, cell_of, start, ncx, ncy, ncz, h, norm,
-            kid, rho_wall, srho, nbr_start, nbr_j, nbr_f):
-    """Eq. (3) for the owned fluid particles among sorted places 0..n-1; owned walls hold rho_wall.
+@njit(cache=True, inline="always")
+def _cell_range(lo_edge, width, cs, origin, ncells):
+    """Cells (clamped to 0..ncells-1) that meet [lo_edge, lo_edge + width) on a grid of side cs."""
+    first = max(int(math.floor(lo_edge / cs)) - origin, 0)
+    last = min(int(math.floor((lo_edge + width) / cs)) - origin, ncells - 1)
+    return first, last
 
-    Also fills the neighbour list: fluid particle k's neighbours are
-    ``nbr_j[nbr_start[k]:nbr_start[k+1]]`` with ``nbr_f = (dW/dr)/r``.
-    Returns the number of list entries needed; if that exceeds
-    ``len(nbr_j)`` the list is incomplete and the call must be repeated with
-    larger arrays.
+
+@njit(cache=True, parallel=True)
+def density(n, sx, sy, sz, sm, skind, owned, order, cell_of, start, ncx, ncy, ncz, lox, loy, loz, x0, cs,
+            h, norm, kid, rho_wall, rho_s, G_a, G_b, pressure, consistent, three_d, rho, stheta, sinv, spress,
+            nbr_n, nbr_j, nbr_f):
+    """Eq. (3) for the owned fluid particles among sorted places 0..n-1 into ``rho[order[i]]``; walls: rho_wall.
+
+    Candidates: for each row of cells (along x) within 2h of particle i, the
+    run of cells that meets the disc of radius 2h on that row, as one
+    contiguous range of sorted places (the cell grid of
+    :func:`parsph.neighbours.sort_into_cells`). Also fills the neighbour
+    list: fluid particle i's neighbours are ``nbr_j[i, :nbr_n[i]]`` with
+    ``nbr_f = (dW/dr)/r``, and the owned particles' factors of Eq. (5)
+    (:func:`rho_factors`). Returns the largest neighbour count; if it exceeds
+    the list width the list is incomplete and the call must be repeated with
+    wider arrays.
     """
     inv_h = 1.0 / h
-    support2 = 4.0 * h * h
-    zr = 1 if ncz > 1 else 0
-    cap = nbr_j.shape[0]
-    p = 0
-    for i in range(n):
-        nbr_start[i] = p
-        if not owned[i]:
-            continue
-        if skind[i] != FLUID:
-            srho[i] = rho_wall
-            continue
-        s = 0.0
-        xi = sx[i]
-        yi = sy[i]
-        zi = sz[i]
-        c0 = cell_of[i]
-        cx0 = c0 % ncx
-        cy0 = (c0 // ncx) % ncy
-        cz0 = c0 // (ncx * ncy)
-        for a in range(-1, 2):
-            cx = cx0 + a
-            if cx < 0 or cx >= ncx:
-                continue
-            for b in range(-1, 2):
-                cy = cy0 + b
-                if cy < 0 or cy >= ncy:
-                    continue
-                for e in range(-zr, zr + 1):
-                    cz = cz0 + e
-                    if cz < 0 or cz >= ncz:
+    support = 2.0 * h
+    support2 = support * support
+    pad = 1e-9 * h  # rounding of the cell edges: never miss a neighbour at r just below 2h
+    width = nbr_j.shape[1]
+    last = width - 1
+    for i in prange(n):
+        cnt = 0
+        if owned[i] and skind[i] != FLUID:
+            rho[order[i]] = rho_wall
+            rho_factors(i, rho_wall, rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
+        elif owned[i]:
+            s = 0.0
+            xi = sx[i]
+            yi = sy[i]
+            zi = sz[i]
+            cy_lo, cy_hi = _cell_range(yi - support - pad, 2.0 * (support + pad), cs, loy, ncy)
+            cz_lo, cz_hi = 0, 0
+            if len(three_d):
+                cz_lo, cz_hi = _cell_range(zi - support - pad, 2.0 * (support + pad), cs, loz, ncz)
+            for cz in range(cz_lo, cz_hi + 1):
+                gz = 0.0  # distance from particle i to the layer of cells cz
+                if len(three_d):
+                    gz = max((cz + loz) * cs - zi, zi - (cz + loz + 1) * cs, 0.0)
+                for cy in range(cy_lo, cy_hi + 1):
+                    gy = max((cy + loy) * cs - yi, yi - (cy + loy + 1) * cs, 0.0)
+                    reach2 = support2 - gy * gy - gz * gz
+                    if reach2 <= 0.0:
                         continue
-                    c = (cz * ncy + cy) * ncx + cx
-                    for j in range(start[c], start[c + 1]):
+                    half = math.sqrt(reach2) + pad
+                    cx_lo, cx_hi = _cell_range(xi - x0 - half, 2.0 * half, cs, lox, ncx)
+                    row = (cz * ncy + cy) * ncx
+                    for j in range(start[row + cx_lo], start[row + cx_hi + 1]):
                         dx = xi - sx[j]
                         dy = yi - sy[j]
-                        dz = zi - sz[j]
-                        r2 = dx * dx + dy * dy + dz * dz
+                        r2 = dx * dx + dy * dy
+                        if len(three_d):
+                            dz = zi - sz[j]
+                            r2 += dz * dz
                         if r2 < support2:
                             r = math.sqrt(r2)
-                            s += sm[j] * kernel_w(kid, r, inv_h, norm)
-                            if j != i:
-                                if p < cap:
-                                    nbr_j[p] = j
-                                    nbr_f[p] = kernel_dwdr(kid, r, inv_h, norm) / r
-                                p += 1
-        srho[i] = s
-    nbr_start[n] = p
-    return p
+                            w, f = kernel_w_f(kid, r, inv_h, norm)
+                            s += sm[j] * w
+                            k = min(cnt, last)
+                            nbr_j[i, k] = j
+                            nbr_f[i, k] = f
+                            cnt += 1 if j != i else 0
+            rho[order[i]] = s
+            rho_factors(i, s, rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
+        nbr_n[i] = cnt
+    return nbr_n[:n].max() if n > 0 else 0
 
 
-@njit(cache=True)
-def volume_fraction(rho, n, rho_s, G_a, G_b, theta, press, pressure, consistent):
-    """theta = rho_bar / rho_s and the per-particle factor of the pressure term.
+@njit(cache=True, inline="always")
+def pressure_factor(th, rho_i, G_a, G_b, consistent):
+    """The per-particle factor of the pressure term at theta = rho_bar / rho_s.
 
-    ``press`` is 10^(G_a theta / 2) for the paper's form (G at the pair mean is
+    10^(G_a theta / 2) for the paper's form (G at the pair mean is
     10^G_b press_i press_j) and p(theta) / rho_bar^2 for the consistent form,
     with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly.
     """
-    ln10 = math.log(10.0)
-    for i in range(n):
-        th = rho[i] / rho_s
-        theta[i] = th
-        if len(pressure):
-            if len(consistent):
-                press[i] = 10.0 ** (G_a * th + G_b) / (G_a * ln10) / (rho[i] * rho[i])
-            else:
-                press[i] = 10.0 ** (0.5 * G_a * th)
+    if len(consistent):
+        return 10.0 ** (G_a * th + G_b) / (G_a * math.log(10.0)) / (rho_i * rho_i)
+    return 10.0 ** (0.5 * G_a * th)
 
 
-@njit(cache=True)
-def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, srho, stheta, spress, owned,
-             nbr_start, nbr_j, nbr_f, rho_s, G_b, k_visc, L, beta_max, g,
-             pressure, viscosity, symmetric_mu, walls, consistent, sax, say, saz):
-    """Eq. (5): acceleration of each owned fluid particle (sorted places; walls: zero)."""
+@njit(cache=True, inline="always")
+def rho_factors(k, rho_k, rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress):
+    """Per-particle factors of Eq. (5) at sorted place k: theta = rho_bar / rho_s, 1/rho_bar, 1/theta, pressure."""
+    th = rho_k / rho_s
+    stheta[k] = th
+    sinv[k, 0] = 1.0 / rho_k
+    sinv[k, 1] = 1.0 / th
+    if len(pressure):
+        spress[k] = pressure_factor(th, rho_k, G_a, G_b, consistent)
+
+
+@njit(cache=True, parallel=True)
+def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, owned, order, rho, stheta, sinv, spress,
+             nbr_n, nbr_j, nbr_f, rho_s, G_a, G_b, k_visc, L, beta_max, g,
+             pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc, theta):
+    """Eq. (5): acceleration of each owned fluid particle into ``acc[order[i]]`` (walls: zero).
+
+    The owned particles' factors (:func:`rho_factors`) come from the density
+    pass; those of the halo copies are made here from ``rho`` (their
+    refreshed densities), in a serial loop: one threaded region per pass.
+    Writes theta back for the owned particles.
+    """
     G_pref = 10.0 ** G_b
-    inv_rho_s2 = 1.0 / (rho_s * rho_s)
-    for i in range(n):
-        sax[i] = 0.0
-        say[i] = 0.0
-        saz[i] = 0.0
-        if not owned[i] or skind[i] != FLUID:
-            continue
-        th_i = stheta[i]
-        inv_th_i = 1.0 / th_i
-        mu_i = k_visc * th_i
-        rho_i = srho[i]
-        pr_i = spress[i]
-        xi = sx[i]
-        yi = sy[i]
-        zi = sz[i]
-        ax = 0.0
-        ay = 0.0
-        az = 0.0
-        for p in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[p]
-            f_over_r = nbr_f[p]
-            m_j = sm[j]
-            if len(pressure):
-                if len(consistent):
-                    cp = -m_j * (pr_i + spress[j]) * f_over_r
-                else:
-                    cp = -m_j * inv_rho_s2 * G_pref * pr_i * spress[j] * (inv_th_i + 1.0 / stheta[j]) * f_over_r
-                ax += cp * (xi - sx[j])
-                ay += cp * (yi - sy[j])
-                az += cp * (zi - sz[j])
-            if len(viscosity):
-                beta = 1.0
-                if len(walls) and skind[j] != FLUID:
-                    if sx[j] < 0.0:
-                        d_j = -sx[j]
-                        d_i = xi
-                    else:
-                        d_j = sx[j] - L
-                        d_i = L - xi
-                    beta = beta_max
-                    if d_i > 0.0:
-                        beta = min(beta_max, 1.0 + d_j / d_i)
-                mu = 0.5 * k_visc * (th_i + stheta[j]) if len(symmetric_mu) else mu_i
-                cv = mu * m_j * (th_i + stheta[j]) / (rho_i * srho[j]) * f_over_r * beta
-                ax += cv * (svx[i] - svx[j])
-                ay += cv * (svy[i] - svy[j])
-                az += cv * (svz[i] - svz[j])
-        sax[i] = ax + g[0]
-        say[i] = ay + g[1]
-        saz[i] = az + g[2]
+    c_press = -G_pref / (rho_s * rho_s)
+    for k in range(n):
+        if not owned[k]:
+            rho_factors(k, rho[order[k]], rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
+    for i in prange(n):
+        if owned[i]:
+            o = order[i]
+            theta[o] = stheta[i]
+            ax = 0.0
+            ay = 0.0
+            az = 0.0
+            if skind[i] == FLUID:
+                th_i = stheta[i]
+                inv_th_i = sinv[i, 1]
+                mu_i = k_visc * th_i
+                inv_rho_i = sinv[i, 0]
+                pr_i = spress[i]
+                cp_i = c_press * pr_i
+                xi = sx[i]
+                yi = sy[i]
+                zi = sz[i]
+                vxi = svx[i]
+                vyi = svy[i]
+                vzi = svz[i]
+                for p in range(nbr_n[i]):
+                    j = nbr_j[i, p]
+                    f_over_r = nbr_f[i, p]
+                    m_j = sm[j]
+                    if len(pressure):
+                        if len(consistent):
+                            cp = -m_j * (pr_i + spress[j]) * f_over_r
+                        else:
+                            cp = m_j * cp_i * spress[j] * (inv_th_i + sinv[j, 1]) * f_over_r
+                        ax += cp * (xi - sx[j])
+                        ay += cp * (yi - sy[j])
+                        if len(three_d):
+                            az += cp * (zi - sz[j])
+                    if len(viscosity):
+                        beta = 1.0
+                        if len(walls) and skind[j] != FLUID:
+                            if sx[j] < 0.0:
+                                d_j = -sx[j]
+                                d_i = xi
+                            else:
+                                d_j = sx[j] - L
+                                d_i = L - xi
+                            beta = beta_max
+                            if d_i > 0.0:
+                                beta = min(beta_max, 1.0 + d_j / d_i)
+                        mu = 0.5 * k_visc * (th_i + stheta[j]) if len(symmetric_mu) else mu_i
+                        cv = mu * m_j * (th_i + stheta[j]) * inv_rho_i * sinv[j, 0] * f_over_r * beta
+                        ax += cv * (vxi - svx[j])
+                        ay += cv * (vyi - svy[j])
+                        if len(three_d):
+                            az += cv * (vzi - svz[j])
+                ax += g[0]
+                ay += g[1]
+                az += g[2]
+            acc[o, 0] = ax
+            acc[o, 1] = ay
+            if len(three_d):
+                acc[o, 2] = az

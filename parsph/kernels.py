@@ -101,6 +101,36 @@ def kernel_dwdr(kid, r, inv_h, norm):
     return wendland1d_dwdr(r, inv_h, norm)
 
 
+@njit(cache=True, inline="always")
+def kernel_w_f(kid, r, inv_h, norm):
+    """``(W, (dW/dr)/r)`` of kernel ``kid`` without branches on r, both exactly zero for r >= 2h.
+
+    For the pair loops: a candidate outside the support adds an exact zero, so
+    no branch is mispredicted and sums do not depend on which candidates are
+    visited. Cubic spline as ``a^3 - 4 b^3`` with ``a = max(2 - q, 0)``,
+    ``b = max(1 - q, 0)`` (Eq. (4) on both pieces); Wendland C2 as
+    ``t^4 (2q + 1)`` with ``t = max(1 - q/2, 0)``, whose ``(dW/dr)/r = -5 t^3 / h^2``
+    needs no division. At r = 0 the second value is 0 (the cubic's numerator
+    vanishes; no 0/0).
+    """
+    q = r * inv_h
+    if kid == CUBIC:
+        a = max(2.0 - q, 0.0)
+        b = max(1.0 - q, 0.0)
+        w = norm * (a * a * a - 4.0 * b * b * b)
+        f = norm * inv_h * (12.0 * b * b - 3.0 * a * a) / max(r, 1e-300)
+    elif kid == WENDLAND:
+        t = max(1.0 - 0.5 * q, 0.0)
+        t3 = t * t * t
+        w = norm * t3 * t * (2.0 * q + 1.0)
+        f = -5.0 * norm * inv_h * inv_h * t3
+    else:
+        t = max(1.0 - 0.5 * q, 0.0)
+        w = norm * t * t * t * (1.5 * q + 1.0)
+        f = -3.0 * norm * inv_h * inv_h * t * t
+    return w, f
+
+
 @dataclass(frozen=True)
 class Kernel:
     """A kernel: its numba functions and its normalisation per dimension."""

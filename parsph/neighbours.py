@@ -13,34 +13,47 @@ from numba import njit
 
 
 class Workspace:
-    """Preallocated cell-ordered arrays, grown only when the particle count grows."""
+    """Preallocated cell-ordered arrays, grown only when the particle count or the neighbour count grows.
 
-    FIELDS_F = ("sx", "sy", "sz", "svx", "svy", "svz", "sm", "srho", "stheta", "spress",
-                "sax", "say", "saz")
+    The neighbour list has a fixed width per particle (``nbr_j[i, :nbr_n[i]]``),
+    so that each particle's list is written independently (threads).
+    """
+
+    FIELDS_F = ("sx", "sy", "sz", "svx", "svy", "svz", "sm", "stheta", "spress")
     FIELDS_I = ("order", "cell_of", "skind", "tmp")
+    MARGIN = 4  # list slots beyond the largest count seen
 
     def __init__(self):
         self.capacity = 0
-        self.nbr_start = np.zeros(1, np.int64)
-        self.nbr_j = np.zeros(0, np.int32)
-        self.nbr_f = np.zeros(0)
+        self.width = 1  # the loops need one slot to write into; the first pass widens it
+        self.ensure(0)
 
     def ensure(self, n):
-        if n > self.capacity:
+        if n > self.capacity or self.capacity == 0:
             cap = max(n, int(1.3 * self.capacity), 64)
             for name in self.FIELDS_F:
                 setattr(self, name, np.zeros(cap))
             for name in self.FIELDS_I:
                 setattr(self, name, np.zeros(cap, np.int64))
             self.owned = np.zeros(cap, np.bool_)
-            self.nbr_start = np.zeros(cap + 1, np.int64)
+            self.sinv = np.zeros((cap, 2))
+            self.nbr_n = np.zeros(cap, np.int64)
             self.capacity = cap
+            self._list(self.width)
 
-    def ensure_pairs(self, m):
-        if m > self.nbr_j.shape[0]:
-            cap = max(m, int(1.3 * self.nbr_j.shape[0]))
-            self.nbr_j = np.zeros(cap, np.int32)
-            self.nbr_f = np.zeros(cap)
+    def ensure_width(self, count):
+        """Widen the neighbour list to hold ``count`` neighbours per particle (plus a margin)."""
+        if count > self.width:
+            self._list(count + self.MARGIN)
+
+    def _list(self, width):
+        self.width = width
+        self.nbr_j = np.zeros((self.capacity, width), np.int32)
+        self.nbr_f = np.zeros((self.capacity, width))
+
+    def pairs(self, n):
+        """Neighbour-list entries (i sees j) of the last density pass over n sorted places."""
+        return int(self.nbr_n[:n].sum())
 
 
 @njit(cache=True)
@@ -49,8 +62,10 @@ def sort_into_cells(pos, vel, mass, kind, gid, n, n_own, x0, cs,
     """Sort particles 0..n-1 into cells and copy their fields in that order.
 
     ``order[k]`` is the particle at sorted place k; ``cell_of[k]`` its cell
-    ``(cz * ncy + cy) * ncx + cx``. Returns ``(start, ncx, ncy, ncz)``: the
-    particles of cell c are sorted places ``start[c] .. start[c+1]-1``.
+    ``(cz * ncy + cy) * ncx + cx``. Returns ``(start, ncx, ncy, ncz, lox,
+    loy, loz)``: the particles of cell c are sorted places ``start[c] ..
+    start[c+1]-1``; cell (cx, cy, cz) spans x - x0 in [(cx + lox) cs, (cx +
+    lox + 1) cs), and likewise y and z from 0.
     """
     dim = pos.shape[1]
     big = 1 << 60
@@ -107,32 +122,4 @@ def sort_into_cells(pos, vel, mass, kind, gid, n, n_own, x0, cs,
         sm[k] = mass[i]
         skind[k] = kind[i]
         owned[k] = i < n_own
-    return start, ncx, ncy, ncz
-
-
-@njit(cache=True)
-def gather(src, order, n, dst):
-    """dst[k] = src[order[k]] for k < n."""
-    for k in range(n):
-        dst[k] = src[order[k]]
-
-
-@njit(cache=True)
-def scatter_owned(src, order, owned, n, dst):
-    """dst[order[k]] = src[k] for the owned sorted places k < n."""
-    for k in range(n):
-        if owned[k]:
-            dst[order[k]] = src[k]
-
-
-@njit(cache=True)
-def scatter_owned_vec(sax, say, saz, order, owned, n, acc):
-    """acc[order[k]] = (sax, say[, saz])[k] for the owned sorted places."""
-    dim = acc.shape[1]
-    for k in range(n):
-        if owned[k]:
-            i = order[k]
-            acc[i, 0] = sax[k]
-            acc[i, 1] = say[k]
-            if dim == 3:
-                acc[i, 2] = saz[k]
+    return start, ncx, ncy, ncz, lox, loy, loz

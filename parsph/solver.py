@@ -14,13 +14,14 @@ from collections import defaultdict
 import numpy as np
 from mpi4py import MPI
 
-from . import equations, integrate, neighbours
+from . import equations, integrate
 from .closures import modulus
 from .config import dt_limits
 from .decomposition import SlabRing
 from .kernels import get_kernel, lattice_sum
 from .particles import FLUID, Particles, add_images, copy_from_sources, count_images
 from .profile import bin_centres, bin_sums, errors
+from .rates import Rates
 
 PHASES = ("halo", "neighbours", "density", "forces", "integrate", "migrate", "output", "checks")
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
@@ -75,9 +76,8 @@ class Simulation:
         self.local_periodic = [(d, self.box[d]) for d in (0, 2) if self.box[d] > 0]
         self._images = []  # (start, src indices, count) per direction, in creation order
         sw = equations.switch
-        self._switches = (sw(cfg.pressure), sw(cfg.viscosity),
-                          sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(self.scene.walls),
-                          sw(cfg.get("numerics.pressure_form") == "consistent"))
+        switches = (sw(cfg.pressure), sw(cfg.viscosity), sw(cfg.get("numerics.viscosity_form") == "symmetric"),
+                    sw(self.scene.walls), sw(cfg.get("numerics.pressure_form") == "consistent"))
         self.step = 0 if state is None else int(state["attrs"]["step"])
         self.t = 0.0 if state is None else float(state["attrs"]["time"])
         self.dt = cfg.dt if state is None else float(state["attrs"]["dt"])
@@ -85,7 +85,9 @@ class Simulation:
         self._flag = np.zeros(2, np.int64)
         self._flag_all = np.zeros(2, np.int64)
         self._saved = (np.zeros((0, cfg.dim)), np.zeros((0, cfg.dim)))
-        self.work = neighbours.Workspace()
+        self.rates = Rates(self.kernel, cfg.h, cfg.dim, self.x0, self.rho_wall, cfg.rho_s, cfg.G_a, cfg.G_b,
+                           cfg.k, cfg.L, cfg.beta_max, self.g, switches)
+        self.work = self.rates.work
         self.n_total = comm.allreduce(self.ps.n_own)
         self.nbins = cfg.Nx
         self._sums = np.zeros((3, self.nbins))
@@ -94,43 +96,17 @@ class Simulation:
     # ---- one evaluation of the right-hand side -------------------------------
     def compute_rates(self):
         """Density, theta and accelerations of the owned particles at the current state."""
-        cfg, ps, T, W = self.cfg, self.ps, self.timers, self.work
         t0 = time.perf_counter()
-        self.ring.exchange_halo(ps)
+        self.ring.exchange_halo(self.ps)
         self._add_periodic_images()
-        t1 = time.perf_counter()
-        n = ps.n
-        W.ensure(n)
-        start, ncx, ncy, ncz = neighbours.sort_into_cells(
-            ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, ps.n_own, self.x0, self.support,
-            W.order, W.cell_of, W.tmp, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.owned)
-        t2 = time.perf_counter()
-        while True:
-            pairs = equations.density(n, W.sx, W.sy, W.sz, W.sm, W.skind, W.owned, W.cell_of, start,
-                                      ncx, ncy, ncz, cfg.h, self.norm, self.kernel.kid,
-                                      self.rho_wall, W.srho, W.nbr_start, W.nbr_j, W.nbr_f)
-            if pairs <= W.nbr_j.shape[0]:
-                break
-            W.ensure_pairs(pairs)
-        neighbours.scatter_owned(W.srho, W.order, W.owned, n, ps.rho)
-        t3 = time.perf_counter()
+        self.timers["halo"] += time.perf_counter() - t0
+        self.rates(self.ps, self._refresh_rho, self.timers)
+
+    def _refresh_rho(self, ps):
+        """rho of the halo copies from their owners, and of the local periodic images."""
         self.ring.exchange_halo_field(ps, "rho")
         for start_, src, k in self._images:
             copy_from_sources(ps.rho, start_, src, k)
-        t4 = time.perf_counter()
-        neighbours.gather(ps.rho, W.order, n, W.srho)
-        equations.volume_fraction(W.srho, n, cfg.rho_s, cfg.G_a, cfg.G_b, W.stheta, W.spress,
-                                  self._switches[0], self._switches[4])
-        equations.momentum(n, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.srho, W.stheta,
-                           W.spress, W.owned, W.nbr_start, W.nbr_j, W.nbr_f, cfg.rho_s, cfg.G_b, cfg.k,
-                           cfg.L, cfg.beta_max, self.g, *self._switches, W.sax, W.say, W.saz)
-        neighbours.scatter_owned_vec(W.sax, W.say, W.saz, W.order, W.owned, n, ps.acc)
-        neighbours.scatter_owned(W.stheta, W.order, W.owned, n, ps.theta)
-        t5 = time.perf_counter()
-        T["halo"] += t1 - t0 + t4 - t3
-        T["neighbours"] += t2 - t1
-        T["density"] += t3 - t2
-        T["forces"] += t5 - t4
 
     def _add_periodic_images(self):
         """Copies of the particles near the ends of each locally periodic direction (x, z)."""

@@ -20,11 +20,12 @@ import tomllib
 
 import numpy as np
 from mpi4py import MPI
+import numba
 from numba import njit
 
 from numba.core.registry import CPUDispatcher
 
-from parsph import config, decomposition, equations, integrate, neighbours, particles, solver
+from parsph import config, decomposition, equations, integrate, neighbours, particles, rates, solver
 from parsph.solver import PHASES, Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -46,7 +47,7 @@ class NumbaClock:
         self._saved = []
 
     def install(self):
-        for mod in (equations, integrate, neighbours, particles, decomposition, solver):
+        for mod in (equations, integrate, neighbours, particles, decomposition, rates, solver):
             for name, obj in list(vars(mod).items()):
                 if isinstance(obj, CPUDispatcher):
                     self._saved.append((mod, name, obj))
@@ -66,7 +67,7 @@ class NumbaClock:
 
 
 @njit(cache=True)
-def reference_forces(n, sx, sy, svx, svy, sm, sth, sinv_th, shg, sinv_rho, nbr_start, nbr_j, nbr_f, c1, c2,
+def reference_forces(n, sx, sy, svx, svy, sm, sth, sinv_th, shg, sinv_rho, nbr_n, nbr_j, nbr_f, c1, c2,
                      ax, ay):
     """The arithmetic of Eq. (5) for fluid pairs, nothing else: no branches, reciprocals precomputed.
 
@@ -83,9 +84,9 @@ def reference_forces(n, sx, sy, svx, svy, sm, sth, sinv_th, shg, sinv_rho, nbr_s
         hgi = shg[i]
         vxi = svx[i]
         vyi = svy[i]
-        for p in range(nbr_start[i], nbr_start[i + 1]):
-            j = nbr_j[p]
-            f = nbr_f[p]
+        for p in range(nbr_n[i]):
+            j = nbr_j[i, p]
+            f = nbr_f[i, p]
             m = sm[j]
             cp = c1 * m * hgi * shg[j] * (ith + sinv_th[j]) * f
             cv = c2 * thi * m * (thi + sth[j]) * irho * sinv_rho[j] * f
@@ -120,27 +121,42 @@ def reference_density(n, sx, sy, sm, cell_of, start, ncx, ncy, h, norm, out):
 
 
 def reference(sim, repeat=20):
-    """ns per neighbour pair of the two reference loops on the solver's current data."""
+    """ns per neighbour pair of the two reference loops on the solver's current data.
+
+    The force loop walks the solver's neighbour list of its last evaluation;
+    the density loop then re-sorts the particles into cells of side 2h.
+    """
     W, ps, cfg = sim.work, sim.ps, sim.cfg
     n = ps.n
-    start, ncx, ncy, _ = neighbours.sort_into_cells(
+    pairs = W.pairs(n)
+    ax, ay = np.zeros(n), np.zeros(n)
+    sinv_th, sinv_rho = W.sinv[:n, 1].copy(), W.sinv[:n, 0].copy()
+    fargs = (n, W.sx, W.sy, W.svx, W.svy, W.sm, W.stheta, sinv_th, W.spress, sinv_rho,
+             W.nbr_n, W.nbr_j, W.nbr_f, -1.0 / cfg.rho_s ** 2, cfg.k, ax, ay)
+    result = {"forces": timed(reference_forces, fargs, repeat) / pairs * 1e9}
+    grid = neighbours.sort_into_cells(
         ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, ps.n_own, sim.x0, sim.support,
         W.order, W.cell_of, W.tmp, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.owned)
-    pairs = int(W.nbr_start[n])
-    out = np.zeros(n)
-    ax, ay = np.zeros(n), np.zeros(n)
-    sinv_th, sinv_rho = 1.0 / W.stheta[:n], 1.0 / W.srho[:n]
-    args = (n, W.sx, W.sy, W.svx, W.svy, W.sm, W.stheta, sinv_th, W.spress, sinv_rho,
-            W.nbr_start, W.nbr_j, W.nbr_f, -1.0 / cfg.rho_s ** 2, cfg.k, ax, ay)
-    dargs = (n, W.sx, W.sy, W.sm, W.cell_of, start, ncx, ncy, cfg.h, sim.norm, out)
-    result = {}
-    for name, fn, a in (("density", reference_density, dargs), ("forces", reference_forces, args)):
-        fn(*a)
-        t0 = time.perf_counter()
-        for _ in range(repeat):
-            fn(*a)
-        result[name] = (time.perf_counter() - t0) / repeat / pairs * 1e9
+    start, ncx, ncy = grid[:3]
+    dargs = (n, W.sx, W.sy, W.sm, W.cell_of, start, ncx, ncy, cfg.h, sim.norm, np.zeros(n))
+    result["density"] = timed(reference_density, dargs, repeat) / pairs * 1e9
     return result
+
+
+def timed(fn, args, repeat):
+    """Seconds per call (after one warm-up call)."""
+    fn(*args)
+    t0 = time.perf_counter()
+    for _ in range(repeat):
+        fn(*args)
+    return (time.perf_counter() - t0) / repeat
+
+
+def threading_layer():
+    try:
+        return numba.threading_layer()
+    except ValueError:  # no parallel region has run
+        return "none"
 
 
 def bench(comm, nx, steps=None, extra=(), budget=5.0):
@@ -179,7 +195,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0):
     clock.remove()
     outside = comm.allreduce((wall2 - clock.seconds) / wall2, op=MPI.MAX)
     cpu = comm.allreduce(time.process_time() - c0, op=MPI.SUM)
-    pairs = comm.allreduce(int(sim.work.nbr_start[sim.ps.n]), op=MPI.SUM)
+    pairs = comm.allreduce(sim.work.pairs(sim.ps.n), op=MPI.SUM)
     rss = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, op=MPI.SUM)
     ref = reference(sim)
     step = wall / steps
@@ -192,6 +208,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0):
         "ns_per_pair_reference_density": ref["density"], "ns_per_pair_reference_forces": ref["forces"],
         "jit_s": jit, "phases_s": phases, "outside_numba_share": outside,
         "rss_bytes_per_particle": rss / sim.n_total,
+        "threads": numba.get_num_threads(), "threading_layer": threading_layer(),
         "machine": f"{platform.node()}, {os.cpu_count()} cores, {platform.processor() or platform.machine()}",
     }
 
@@ -205,7 +222,9 @@ def main():
     ap.add_argument("--json", help="append results as JSON lines to this file")
     ap.add_argument("--tag", default="", help="label stored with each record")
     ap.add_argument("--set", action="append", default=[], help="extra run-file overrides")
+    ap.add_argument("--threads", type=int, default=1, help="numba threads per rank (NUMBA_NUM_THREADS caps it)")
     a = ap.parse_args()
+    numba.set_num_threads(a.threads)
     comm = MPI.COMM_WORLD
     for nx in a.nx:
         r = bench(comm, nx, a.steps or None, a.set, a.budget)
@@ -213,7 +232,7 @@ def main():
         if comm.rank == 0:
             ph = " ".join(f"{k} {v * 1e3:.3f}" for k, v in r["phases_s"].items())
             print(f"Nx={nx:4d} P={r['ranks']} N={r['particles']:7d} {r['step_s'] * 1e3:9.3f} ms/step "
-                  f"{r['particle_steps_per_s']:.3g} particle-steps/s  outside numba {100 * r['outside_numba_share']:.1f}%  "
+                  f"T={r['threads']} {r['particle_steps_per_s']:.3g} particle-steps/s  outside numba {100 * r['outside_numba_share']:.1f}%  "
                   f"{r['ns_per_pair_density']:.1f}/{r['ns_per_pair_forces']:.1f} ns/pair (density/forces)  "
                   f"RSS {r['rss_bytes_per_particle']:.0f} B/particle  jit+setup {r['jit_s']:.1f} s {a.tag}",
                   flush=True)

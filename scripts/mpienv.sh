@@ -4,6 +4,7 @@
 if [ "$(id -u)" = 0 ]; then
     export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 fi
-# numba: no busy-waiting worker threads competing with the MPI ranks
-export NUMBA_NUM_THREADS=${NUMBA_NUM_THREADS:-1} OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
+# numba's OpenMP threads (parsph run --threads N) sleep instead of spinning
+# while they wait: spinning threads ran many times slower on these VMs
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 export PARSPH_MPIRUN_FLAGS=${PARSPH_MPIRUN_FLAGS:---oversubscribe}

@@ -13,5 +13,5 @@ $PY -m pytest -q tests "$@"
 for n in 2 3; do
     echo "== MPI tests on $n ranks"
     # pytest-mpi: only tests marked mpi; each rank runs them on COMM_WORLD
-    timeout 900 mpirun -n $n $PARSPH_MPIRUN_FLAGS $PY -m pytest -q --with-mpi -m mpi -p no:cacheprovider tests "$@"
+    NUMBA_NUM_THREADS=1 timeout 900 mpirun -n $n $PARSPH_MPIRUN_FLAGS $PY -m pytest -q --with-mpi -m mpi -p no:cacheprovider tests "$@"
 done

@@ -23,9 +23,10 @@ import math
 import numpy as np
 import pytest
 
-from parsph import equations, integrate, neighbours
+from parsph import equations, integrate
 from parsph.kernels import get_kernel
 from parsph.particles import FLUID, Particles
+from parsph.rates import Rates
 
 DX = 2e-4
 H = 1.25 * DX
@@ -53,13 +54,12 @@ class PeriodicBox:
         self.ps = Particles.from_arrays(np.arange(n, dtype=np.int64), np.full(n, FLUID, np.int64),
                                         mass, pos, vel)
         self.kernel = get_kernel("cubic_spline", 2)
-        self.norm = self.kernel.norm(H, 2)
         self.pressure, self.viscosity, self.symmetric_mu = pressure, viscosity, symmetric_mu
         self.consistent = consistent  # numerics.pressure_form = "consistent"
         self.box = np.array([LX, LY, 0.0])  # periods per direction for the integrator's wrap
         self.g = np.zeros(3)  # the loops take g with three components (z = 0 in 2-D)
-        self.work = neighbours.Workspace()
         self.wraps = 0
+        self._rates = None
 
     def add_images(self):
         """Append the periodic images within the support of an edge; return their sources."""
@@ -96,32 +96,18 @@ class PeriodicBox:
 
     def rates(self):
         """The package's step-rate pipeline (as Simulation.compute_rates), images as halo copies."""
-        ps, W = self.ps, self.work
         src = self.add_images()
-        n, n0 = ps.n, ps.n_own
-        W.ensure(n)
-        start, ncx, ncy, ncz = neighbours.sort_into_cells(
-            ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, n0, -SUPPORT, SUPPORT,
-            W.order, W.cell_of, W.tmp, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.owned)
-        while True:
-            pairs = equations.density(n, W.sx, W.sy, W.sz, W.sm, W.skind, W.owned, W.cell_of, start,
-                                      ncx, ncy, ncz, H, self.norm, self.kernel.kid, RHO_S * THETA0,
-                                      W.srho, W.nbr_start, W.nbr_j, W.nbr_f)
-            if pairs <= W.nbr_j.shape[0]:
-                break
-            W.ensure_pairs(pairs)
-        neighbours.scatter_owned(W.srho, W.order, W.owned, n, ps.rho)
-        ps.rho[n0:n] = ps.rho[src]  # images carry their original's density (the halo rho exchange)
-        neighbours.gather(ps.rho, W.order, n, W.srho)
-        sw = equations.switch
-        equations.volume_fraction(W.srho, n, RHO_S, G_A, G_B, W.stheta, W.spress, sw(self.pressure),
-                                  sw(self.consistent))
-        equations.momentum(n, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.srho, W.stheta,
-                           W.spress, W.owned, W.nbr_start, W.nbr_j, W.nbr_f, RHO_S, G_B, K_VISC,
-                           1e6, 1.5, self.g, sw(self.pressure), sw(self.viscosity), sw(self.symmetric_mu),
-                           sw(False), sw(self.consistent), W.sax, W.say, W.saz)
-        neighbours.scatter_owned_vec(W.sax, W.say, W.saz, W.order, W.owned, n, ps.acc)
-        neighbours.scatter_owned(W.stheta, W.order, W.owned, n, ps.theta)
+        n0 = self.ps.n_own
+
+        def refresh_rho(ps):  # images carry their original's density (the halo rho exchange)
+            ps.rho[n0:ps.n] = ps.rho[src]
+
+        if self._rates is None:
+            sw = equations.switch
+            self._rates = Rates(self.kernel, H, 2, -SUPPORT, RHO_S * THETA0, RHO_S, G_A, G_B, K_VISC, 1e6, 1.5,
+                                self.g, (sw(self.pressure), sw(self.viscosity), sw(self.symmetric_mu), sw(False),
+                                         sw(self.consistent)))
+        self._rates(self.ps, refresh_rho)
         return src
 
     def advance(self):

@@ -56,6 +56,7 @@ def env(**extra):
     if "NUMBA_CACHE_DIR" not in e:
         e["NUMBA_CACHE_DIR"] = private_cache_dir()
     e["PYTHONUNBUFFERED"] = "1"
+    e.setdefault("NUMBA_NUM_THREADS", "1")  # ranks share the cores: no extra threads per rank
     e.update({k: str(v) for k, v in extra.items()})
     return e
 
