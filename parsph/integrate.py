@@ -11,11 +11,12 @@ Wall particles move with their prescribed velocity (r += dt v). Positions are
 wrapped into the periodic box at the end of a step (``box[d]`` is the period
 of direction d, 0 where it is not periodic; y always is). Each function returns
 the number of owned particles whose new state is not finite, so that a blow-up
-is caught before the next neighbour search.
+is caught before the next neighbour search. Particles are independent: the
+loops are threaded (prange), with the count as a reduction.
 """
 import math
 
-from numba import njit
+from numba import njit, prange
 
 from .particles import FLUID
 
@@ -46,13 +47,13 @@ def _wrap(pos, i, box):
             pos[i, d] = y
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def step_paper(pos, vel, acc, kind, n_own, dt, box):
     """Eqs. (6)-(7)."""
     dim = pos.shape[1]
     half_dt2 = 0.5 * dt * dt
     bad = 0
-    for i in range(n_own):
+    for i in prange(n_own):
         if kind[i] == FLUID:
             for d in range(dim):
                 pos[i, d] += dt * vel[i, d] + half_dt2 * acc[i, d]
@@ -65,12 +66,12 @@ def step_paper(pos, vel, acc, kind, n_own, dt, box):
     return bad
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0):
     """Save (r^n, v^n) and move to the midpoint state (r*, v*); no wrap."""
     dim = pos.shape[1]
     bad = 0
-    for i in range(n_own):
+    for i in prange(n_own):
         for d in range(dim):
             pos0[i, d] = pos[i, d]
             vel0[i, d] = vel[i, d]
@@ -81,12 +82,12 @@ def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0):
     return bad
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, box):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*)."""
     dim = pos.shape[1]
     bad = 0
-    for i in range(n_own):
+    for i in prange(n_own):
         for d in range(dim):
             pos[i, d] = pos0[i, d] + dt * vel[i, d]
             if kind[i] == FLUID:

@@ -159,8 +159,15 @@ def threading_layer():
         return "none"
 
 
+def current_rss():
+    """Resident set size of this process now [bytes]."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
 def bench(comm, nx, steps=None, extra=(), budget=5.0):
     cfg = make_config(nx, extra)
+    rss0 = comm.allreduce(current_rss(), op=MPI.SUM)
     comm.Barrier()
     t0 = time.perf_counter()
     sim = Simulation(cfg, comm)
@@ -208,6 +215,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0):
         "ns_per_pair_reference_density": ref["density"], "ns_per_pair_reference_forces": ref["forces"],
         "jit_s": jit, "phases_s": phases, "outside_numba_share": outside,
         "rss_bytes_per_particle": rss / sim.n_total,
+        "rss_before_bytes": rss0, "rss_added_bytes_per_particle": (rss - rss0) / sim.n_total,
         "threads": numba.get_num_threads(), "threading_layer": threading_layer(),
         "machine": f"{platform.node()}, {os.cpu_count()} cores, {platform.processor() or platform.machine()}",
     }
@@ -226,6 +234,10 @@ def main():
     a = ap.parse_args()
     numba.set_num_threads(a.threads)
     comm = MPI.COMM_WORLD
+    warm = Simulation(make_config(10), comm)  # load the compiled loops before any RSS is taken
+    warm.compute_rates()
+    warm.advance(warm.cfg.dt)
+    del warm
     for nx in a.nx:
         r = bench(comm, nx, a.steps or None, a.set, a.budget)
         r["tag"] = a.tag
@@ -234,7 +246,8 @@ def main():
             print(f"Nx={nx:4d} P={r['ranks']} N={r['particles']:7d} {r['step_s'] * 1e3:9.3f} ms/step "
                   f"T={r['threads']} {r['particle_steps_per_s']:.3g} particle-steps/s  outside numba {100 * r['outside_numba_share']:.1f}%  "
                   f"{r['ns_per_pair_density']:.1f}/{r['ns_per_pair_forces']:.1f} ns/pair (density/forces)  "
-                  f"RSS {r['rss_bytes_per_particle']:.0f} B/particle  jit+setup {r['jit_s']:.1f} s {a.tag}",
+                  f"RSS {r['rss_bytes_per_particle']:.0f} B/particle "
+                  f"({r['rss_added_bytes_per_particle']:.0f} B above the {r['rss_before_bytes'] / 2**20:.0f} MiB before)  jit+setup {r['jit_s']:.1f} s {a.tag}",
                   flush=True)
             print(f"    ms/step: {ph}", flush=True)
             print(f"    reference loops: {r['ns_per_pair_reference_density']:.1f}/"
