@@ -3,9 +3,10 @@
 Each kernel is a pair of numba functions ``w(r, inv_h, norm)`` and
 ``dwdr(r, inv_h, norm)`` with compact support ``r < 2h``; ``norm`` is the
 dimension- and h-dependent constant from :func:`Kernel.norm`. The loops in
-:mod:`parsph.equations` call :func:`kernel_w` / :func:`kernel_dwdr` with the
-kernel's integer id (a function passed as an argument would make numba's
-on-disk cache key differ in every process, so nothing would be reused).
+:mod:`parsph.equations` call :func:`kernel_w_f`, a branch-free form of both,
+with the kernel's integer id (a function passed as an argument would make
+numba's on-disk cache key differ in every process, so nothing would be
+reused).
 """
 from dataclasses import dataclass
 import math
@@ -82,26 +83,6 @@ CUBIC, WENDLAND, WENDLAND_1D = 0, 1, 2
 
 
 @njit(cache=True, inline="always")
-def kernel_w(kid, r, inv_h, norm):
-    """W of kernel ``kid``."""
-    if kid == CUBIC:
-        return cubic_w(r, inv_h, norm)
-    if kid == WENDLAND:
-        return wendland_w(r, inv_h, norm)
-    return wendland1d_w(r, inv_h, norm)
-
-
-@njit(cache=True, inline="always")
-def kernel_dwdr(kid, r, inv_h, norm):
-    """dW/dr of kernel ``kid``."""
-    if kid == CUBIC:
-        return cubic_dwdr(r, inv_h, norm)
-    if kid == WENDLAND:
-        return wendland_dwdr(r, inv_h, norm)
-    return wendland1d_dwdr(r, inv_h, norm)
-
-
-@njit(cache=True, inline="always")
 def kernel_w_f(kid, r, inv_h, norm):
     """``(W, (dW/dr)/r)`` of kernel ``kid`` without branches on r, both exactly zero for r >= 2h.
 
@@ -138,7 +119,7 @@ class Kernel:
     w: object
     dwdr: object
     alpha: tuple  # alpha_d * h^d for d = 1, 2, 3
-    kid: int  # id for kernel_w / kernel_dwdr
+    kid: int  # id for kernel_w_f
     support: float = 2.0  # in units of h
 
     def norm(self, h, dim):

@@ -129,16 +129,23 @@ def test_cubic_spline_eq4_values(dim, alpha):
 
 
 @pytest.mark.parametrize("name,dim", KERNELS, ids=IDS)
-def test_kernel_id_dispatch(name, dim):
-    """The loops select the kernel by its integer id (kernel_w / kernel_dwdr): the same numbers
-    as the kernel object's own functions, bit for bit, everywhere in and beyond the support."""
+def test_pair_function_by_kernel_id(name, dim):
+    """The loops' branch-free ``kernel_w_f(kid, ...)`` gives the kernel's W and (dW/dr)/r (to round-off),
+    exact zeros from 2h on, and a finite (dW/dr)/r at r = 0 (the kernel's limit: no 0/0)."""
     k = get_kernel(name, dim)
     assert isinstance(k.kid, int)
     norm = k.norm(H, dim)
-    r = np.concatenate([np.linspace(0.0, 2.2, 221), [1.0, 2.0]]) * H
-    for x in r:
-        assert kernels.kernel_w(k.kid, float(x), 1.0 / H, norm) == k.w(float(x), 1.0 / H, norm)
-        assert kernels.kernel_dwdr(k.kid, float(x), 1.0 / H, norm) == k.dwdr(float(x), 1.0 / H, norm)
+    scale = k.w(0.0, 1.0 / H, norm)
+    for x in np.concatenate([np.linspace(0.01, 2.2, 220), [1.0, 2.0, 1.999999]]) * H:
+        w, f = kernels.kernel_w_f(k.kid, float(x), 1.0 / H, norm)
+        assert w == pytest.approx(k.w(float(x), 1.0 / H, norm), rel=1e-12, abs=1e-14 * scale)
+        assert f == pytest.approx(k.dwdr(float(x), 1.0 / H, norm) / x, rel=1e-12, abs=1e-14 * scale / H ** 2)
+        if x >= 2 * H:
+            assert w == 0.0 and f == 0.0
+    w0, f0 = kernels.kernel_w_f(k.kid, 0.0, 1.0 / H, norm)
+    assert w0 == k.w(0.0, 1.0 / H, norm)
+    tiny = 1e-6 * H
+    assert f0 == pytest.approx(k.dwdr(tiny, 1.0 / H, norm) / tiny, rel=1e-5, abs=1e-14 * scale / H ** 2)
 
 
 def test_kernel_ids_distinct():
