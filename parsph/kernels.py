@@ -89,17 +89,17 @@ def kernel_w_f(kid, r, inv_h, norm):
     For the pair loops: a candidate outside the support adds an exact zero, so
     no branch is mispredicted and sums do not depend on which candidates are
     visited. Cubic spline as ``a^3 - 4 b^3`` with ``a = max(2 - q, 0)``,
-    ``b = max(1 - q, 0)`` (Eq. (4) on both pieces); Wendland C2 as
-    ``t^4 (2q + 1)`` with ``t = max(1 - q/2, 0)``, whose ``(dW/dr)/r = -5 t^3 / h^2``
-    needs no division. At r = 0 the second value is 0 (the cubic's numerator
-    vanishes; no 0/0).
+    ``b = max(1 - q, 0)`` (Eq. (4) on both pieces), its ``(dW/dr)/r`` as
+    ``(9q - 12) / h^2`` or ``-3 a^2 / (q h^2)`` (a select, not a branch);
+    Wendland C2 as ``t^4 (2q + 1)`` with ``t = max(1 - q/2, 0)``, whose
+    ``(dW/dr)/r = -5 t^3 / h^2``. At r = 0 the second value is its limit (no 0/0).
     """
     q = r * inv_h
     if kid == CUBIC:
         a = max(2.0 - q, 0.0)
         b = max(1.0 - q, 0.0)
         w = norm * (a * a * a - 4.0 * b * b * b)
-        f = norm * inv_h * (12.0 * b * b - 3.0 * a * a) / max(r, 1e-300)
+        f = norm * inv_h * inv_h * (9.0 * q - 12.0 if q < 1.0 else -3.0 * a * a / q)
     elif kid == WENDLAND:
         t = max(1.0 - 0.5 * q, 0.0)
         t3 = t * t * t
