@@ -87,18 +87,22 @@ def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=400
     ``form="paper"`` gives instead the balance that the paper's pressure term
     of Eq. (5) converges to: with G taken at the pair mean it discretises
     grad(G theta) = G (1 + G_a ln(10) theta) grad theta, a stiffer column.
+
+    Points x outside [0, L] get the same balance continued beyond the plates
+    (the values the ghost wall particles there hold).
     """
     stiff = G_a * math.log(10.0) if form == "paper" else 0.0
 
     def rhs(th):
         return -rho_s * g * th / (10.0 ** (G_a * th + G_b) * (1.0 + stiff * th))
 
-    def column(theta_b):
-        xs = np.linspace(0.0, L, steps + 1)
+    def column(theta_b, end=L, n=steps):
+        """RK4 from theta_b at x = 0 to x = end (either side of 0)."""
+        xs = np.linspace(0.0, end, n + 1)
         th = np.empty_like(xs)
         th[0] = theta_b
-        dx = L / steps
-        for i in range(steps):
+        dx = end / n
+        for i in range(n):
             t = th[i]
             k1 = rhs(t)
             k2 = rhs(t + 0.5 * dx * k1)
@@ -120,7 +124,16 @@ def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=400
             lo = mid
         else:
             hi = mid
-    xs, th = column(0.5 * (lo + hi))
+    theta_b = 0.5 * (lo + hi)
+    xs, th = column(theta_b)
     if th[-1] < 1e-3 * theta0:
         raise ValueError("the column does not reach the lid (free surface)")
-    return np.interp(np.asarray(x, dtype=float), xs, th)
+    x = np.asarray(x, dtype=float)
+    lo_x, hi_x = min(float(x.min(initial=0.0)), 0.0), max(float(x.max(initial=L)), L)
+    if lo_x < 0.0:  # below the floor: the balance continued downwards
+        xb, tb = column(theta_b, lo_x, max(1, int(steps * -lo_x / L)))
+        xs, th = np.concatenate([xb[:0:-1], xs]), np.concatenate([tb[:0:-1], th])
+    if hi_x > L:  # above the lid
+        xt, tt = column(th[-1], hi_x - L, max(1, int(steps * (hi_x - L) / L)))
+        xs, th = np.concatenate([xs, L + xt[1:]]), np.concatenate([th, tt[1:]])
+    return np.interp(x, xs, th)

@@ -68,9 +68,9 @@ def _cell_range(lo_edge, width, cs, origin, ncells):
 
 @njit(cache=True, parallel=True)
 def density(n, sx, sy, sz, sm, skind, owned, order, cell_of, start, ncx, ncy, ncz, lox, loy, loz, x0, cs,
-            h, norm, kid, rho_wall, rho_s, G_a, G_b, pressure, consistent, three_d, rho, stheta, sinv, spress,
+            h, norm, kid, rho_s, G_a, G_b, pressure, consistent, three_d, rho, stheta, sinv, spress,
             nbr_n, nbr_j, nbr_f):
-    """Eq. (3) for the owned fluid particles among sorted places 0..n-1 into ``rho[order[i]]``; walls: rho_wall.
+    """Eq. (3) for the owned fluid particles among sorted places 0..n-1 into ``rho[order[i]]``; walls hold theirs.
 
     Candidates: for each row of cells (along x) within 2h of particle i, the
     run of cells that meets the disc of radius 2h on that row, as one
@@ -91,8 +91,7 @@ def density(n, sx, sy, sz, sm, skind, owned, order, cell_of, start, ncx, ncy, nc
     for i in prange(n):
         cnt = 0
         if owned[i] and skind[i] != FLUID:
-            rho[order[i]] = rho_wall
-            rho_factors(i, rho_wall, rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
+            rho_factors(i, rho[order[i]], rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
         elif owned[i]:
             s = 0.0
             xi = sx[i]

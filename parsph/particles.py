@@ -55,25 +55,30 @@ class Particles:
     # ---- packing of whole particles into float64 rows (halo, migration) ----
     @property
     def row_width(self):
-        return 3 + 2 * self.dim
+        return 4 + 2 * self.dim
 
     ycol = 4  # column of the y coordinate in a packed row
 
     def pack(self, idx, k, out):
-        """Write particles ``idx[:k]`` as rows [gid, kind, mass, pos, vel] into ``out``."""
-        _pack(self.gid, self.kind, self.mass, self.pos, self.vel, idx, k, out)
+        """Write particles ``idx[:k]`` as rows [gid, kind, mass, pos, vel, rho] into ``out``.
+
+        rho travels because wall particles hold theirs (fluid densities are
+        recomputed every step).
+        """
+        _pack(self.gid, self.kind, self.mass, self.pos, self.vel, self.rho, idx, k, out)
 
     def unpack(self, rows, start):
         """Store ``rows`` as particles ``start .. start+len(rows)-1``."""
-        _unpack(rows, start, self.gid, self.kind, self.mass, self.pos, self.vel)
+        _unpack(rows, start, self.gid, self.kind, self.mass, self.pos, self.vel, self.rho)
 
     def keep_owned(self, gone, k):
         """Drop the owned particles ``gone[:k]`` (ascending indices), keeping the others' order."""
-        self.n_own = self.n = _compact(gone, k, self.n_own, self.gid, self.kind, self.mass, self.pos, self.vel)
+        self.n_own = self.n = _compact(gone, k, self.n_own, self.gid, self.kind, self.mass, self.pos, self.vel,
+                                       self.rho)
 
 
 @njit(cache=True)
-def _pack(gid, kind, mass, pos, vel, idx, k, out):
+def _pack(gid, kind, mass, pos, vel, rho, idx, k, out):
     d = pos.shape[1]
     for r in range(k):
         i = idx[r]
@@ -83,10 +88,11 @@ def _pack(gid, kind, mass, pos, vel, idx, k, out):
         for c in range(d):
             out[r, 3 + c] = pos[i, c]
             out[r, 3 + d + c] = vel[i, c]
+        out[r, 3 + 2 * d] = rho[i]
 
 
 @njit(cache=True)
-def _unpack(rows, start, gid, kind, mass, pos, vel):
+def _unpack(rows, start, gid, kind, mass, pos, vel, rho):
     d = pos.shape[1]
     for r in range(rows.shape[0]):
         i = start + r
@@ -96,10 +102,11 @@ def _unpack(rows, start, gid, kind, mass, pos, vel):
         for c in range(d):
             pos[i, c] = rows[r, 3 + c]
             vel[i, c] = rows[r, 3 + d + c]
+        rho[i] = rows[r, 3 + 2 * d]
 
 
 @njit(cache=True)
-def _compact(gone, k, n, gid, kind, mass, pos, vel):
+def _compact(gone, k, n, gid, kind, mass, pos, vel, rho):
     """Remove indices gone[:k] (ascending) from 0..n-1 in place; return the new count."""
     d = pos.shape[1]
     w = 0
@@ -112,6 +119,7 @@ def _compact(gone, k, n, gid, kind, mass, pos, vel):
             gid[w] = gid[i]
             kind[w] = kind[i]
             mass[w] = mass[i]
+            rho[w] = rho[i]
             for c in range(d):
                 pos[w, c] = pos[i, c]
                 vel[w, c] = vel[i, c]

@@ -22,13 +22,13 @@ class Rates:
 
     CELLS_PER_SUPPORT = 1  # cell side 2h (measured: finer cells, 2h/2 to 2h/4, were 3-10% slower)
 
-    def __init__(self, kernel, h, dim, x0, rho_wall, rho_s, G_a, G_b, k, L, beta_max, g, switches):
+    def __init__(self, kernel, h, dim, x0, rho_s, G_a, G_b, k, L, beta_max, g, switches):
         pressure, viscosity, symmetric_mu, walls, consistent = switches
         three_d = equations.switch(dim == 3)
         self.cell = kernel.support * h / self.CELLS_PER_SUPPORT
         self.x0 = x0
         # the constant trailing arguments of the two passes
-        self.density_consts = (x0, self.cell, h, kernel.norm(h, dim), kernel.kid, rho_wall, rho_s, G_a, G_b,
+        self.density_consts = (x0, self.cell, h, kernel.norm(h, dim), kernel.kid, rho_s, G_a, G_b,
                                pressure, consistent, three_d)
         self.momentum_consts = (rho_s, G_a, G_b, k, L, beta_max, np.asarray(g, float), pressure, viscosity,
                                 symmetric_mu, walls, consistent, three_d)
@@ -36,6 +36,8 @@ class Rates:
 
     def __call__(self, ps, refresh_rho, timers=None):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``refresh_rho(ps)`` updates the halo's rho.
+
+        Wall particles keep the rho they hold in ``ps.rho``.
 
         ``timers`` (a dict) gets the seconds of "neighbours", "density",
         "halo" (the callback) and "forces" added.

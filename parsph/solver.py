@@ -63,9 +63,15 @@ class Simulation:
                                             state["mass"][mine], state["position"][mine],
                                             state["velocity"][mine])
         # Walls hold the density that Eq. (3) gives inside the initial lattice,
-        # so that the undisturbed lattice is in equilibrium next to a wall.
+        # so that the undisturbed lattice is in equilibrium next to a wall;
+        # scaled by the scene's wall_theta(x) / theta_0 where it has one (a
+        # function of x, which walls keep: a restart finds the same values).
         self.rho_wall = cfg.mass * lattice_sum(self.kernel, cfg.h, cfg.spacing)
-        self.ps.rho[:self.ps.n] = self.rho_wall
+        ps = self.ps
+        ps.rho[:ps.n] = self.rho_wall
+        if self.scene.wall_theta is not None:
+            wall = ps.kind[:ps.n] != FLUID
+            ps.rho[:ps.n][wall] *= self.scene.wall_theta(cfg, ps.pos[:ps.n][wall, 0]) / cfg.theta0
         self.x0 = -cfg.layers * cfg.dx - self.halo
         self.g = np.zeros(3)
         if self.scene.terms.body_force:
@@ -85,7 +91,7 @@ class Simulation:
         self._flag = np.zeros(2, np.int64)
         self._flag_all = np.zeros(2, np.int64)
         self._saved = (np.zeros((0, cfg.dim)), np.zeros((0, cfg.dim)))
-        self.rates = Rates(self.kernel, cfg.h, cfg.dim, self.x0, self.rho_wall, cfg.rho_s, cfg.G_a, cfg.G_b,
+        self.rates = Rates(self.kernel, cfg.h, cfg.dim, self.x0, cfg.rho_s, cfg.G_a, cfg.G_b,
                            cfg.k, cfg.L, cfg.beta_max, self.g, switches)
         self.work = self.rates.work
         self.n_total = comm.allreduce(self.ps.n_own)

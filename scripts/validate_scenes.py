@@ -25,7 +25,8 @@ from mpi4py import MPI
 
 from parsph import config
 from parsph.analytic import settling_equilibrium
-from parsph.output import read_profile
+from parsph.output import output_files, read_profile, read_snapshot
+from parsph.particles import FLUID
 from parsph.solver import Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -40,6 +41,19 @@ def run_scene(name, ranks, out, extra=()):
     t0 = time.perf_counter()
     subprocess.run(cmd, check=True, env=env, stdout=subprocess.DEVNULL)
     return time.perf_counter() - t0
+
+
+def settling_time(outdir, tol=1e-4):
+    """The first output time from which the fluid's largest |v_x| stays below ``tol`` [m/s] (None: never)."""
+    settled = None
+    for f in output_files(outdir):
+        snap = read_snapshot(f)
+        vx = np.abs(snap["velocity"][snap["kind"] == FLUID, 0]).max()
+        if vx < tol:
+            settled = settled if settled is not None else float(snap["attrs"]["time"])
+        else:
+            settled = None
+    return settled
 
 
 def in_process(text, over):
@@ -80,7 +94,10 @@ def main():
                                          form="paper")
             err = np.abs(theta - ref) / cfg.theta0
             errp = np.abs(theta - paper) / cfg.theta0
-            msg = (f"theta(x) averaged over t >= {p['time'][late][0]:g} s: max {err.max():.2e}, "
+            settled = settling_time(os.path.join(a.out, name))
+            when = f"settled (max \\|v_x\\| < 1e-4 m/s) from t = {settled:g} s" if settled is not None \
+                else "not settled (max \\|v_x\\| >= 1e-4 m/s at the last output)"
+            msg = (f"{when}; theta(x) averaged over t >= {p['time'][late][0]:g} s: max {err.max():.2e}, "
                    f"RMS {math.sqrt((err ** 2).mean()):.2e} of theta_0 (floor {theta[0]:.4f} vs "
                    f"{ref[0]:.4f}); against the paper form's balance: max {errp.max():.2e}")
         else:

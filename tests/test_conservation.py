@@ -104,7 +104,7 @@ class PeriodicBox:
 
         if self._rates is None:
             sw = equations.switch
-            self._rates = Rates(self.kernel, H, 2, -SUPPORT, RHO_S * THETA0, RHO_S, G_A, G_B, K_VISC, 1e6, 1.5,
+            self._rates = Rates(self.kernel, H, 2, -SUPPORT, RHO_S, G_A, G_B, K_VISC, 1e6, 1.5,
                                 self.g, (sw(self.pressure), sw(self.viscosity), sw(self.symmetric_mu), sw(False),
                                          sw(self.consistent)))
         self._rates(self.ps, refresh_rho)

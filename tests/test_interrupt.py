@@ -308,18 +308,10 @@ def test_print_observations():
 @pytest.mark.mpi
 def test_stop_requested_on_one_rank_in_process(mpi_tmp_path):
     """A stop seen by the last rank only: every rank writes the final snapshot and raises Interrupted."""
-    from mpi4py import MPI
-    from parsph import config
     from parsph.output import Output, read_snapshot, read_state
     from parsph.solver import Interrupted, Simulation
-    comm = MPI.COMM_WORLD
-    ly = max(10, 4 * comm.size) * 2e-4
-    cfg = config.load(C.PAPER, [f"domain.Ly={ly!r}", "output.t_end=0.0003", "output.times=[0.0003]"])
-    a, b = mpi_tmp_path / "stopped", mpi_tmp_path / "uninterrupted"
-    if comm.rank == 0:
-        a.mkdir()
-        b.mkdir()
-    comm.Barrier()
+    comm, cfg, (a, b) = C.comm_world_case(mpi_tmp_path, ("stopped", "uninterrupted"),
+                                          "output.t_end=0.0003", "output.times=[0.0003]")
 
     sim = Simulation(cfg, comm)
     with pytest.raises(Interrupted, match=r"stopped at step 7,"):

@@ -49,7 +49,7 @@ def helper(name):
     (1, {"PARSPH_SERIAL_HDF5": "1"}),           # the gather-to-rank-0 output path
 ], ids=["rank1", "rank0", "rank1-serial-hdf5"])
 def test_exception_on_one_rank_ends_the_job(tmp_path, rank, env):
-    r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("fail_one_rank.py"), rank, 20, "--",
+    r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("inject_one_rank.py"), "raise", rank, 20, "--",
                                      launch.PAPER, *sets(), "--out", tmp_path / "out", "--force", "--quiet"),
                    timeout=HARD_TIMEOUT, **env)
     assert r.returncode != 0, r
@@ -68,7 +68,7 @@ def test_exception_on_one_rank_ends_the_job(tmp_path, rank, env):
 def test_nan_on_one_rank_stops_every_rank_with_exit_3(tmp_path, inject_at, check_every, caught_at):
     """A NaN velocity on rank 1: exit 3 and ONE message, from the checks (every checks.every steps)
     or, between them, from the per-step collective non-finite flag right after integration."""
-    r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("nan_one_rank.py"), 1, inject_at, "--",
+    r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("inject_one_rank.py"), "nan", 1, inject_at, "--",
                                      launch.PAPER, *sets(f"checks.every={check_every}"),
                                      "--out", tmp_path / "out", "--force", "--quiet"),
                    timeout=HARD_TIMEOUT)

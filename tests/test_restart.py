@@ -304,18 +304,10 @@ def test_restart_without_a_snapshot_is_bad_input(runs, tmp_path, ranks, kind):
 @pytest.mark.mpi
 def test_restart_in_process_on_comm_world(mpi_tmp_path):
     """Simulation + Output on COMM_WORLD: continuing from read_state equals the uninterrupted run."""
-    from mpi4py import MPI
-    from parsph import config
     from parsph.output import Output, read_snapshot, read_state
     from parsph.solver import Simulation
-    comm = MPI.COMM_WORLD
-    ly = max(10, 4 * comm.size) * 2e-4
-    cfg = config.load(C.PAPER, [f"domain.Ly={ly!r}", "output.t_end=0.0006", "output.times=[0.0003, 0.0006]"])
-    a, b = mpi_tmp_path / "uninterrupted", mpi_tmp_path / "restarted"
-    if comm.rank == 0:
-        a.mkdir()
-        b.mkdir()
-    comm.Barrier()
+    comm, cfg, (a, b) = C.comm_world_case(mpi_tmp_path, ("uninterrupted", "restarted"),
+                                          "output.t_end=0.0006", "output.times=[0.0003, 0.0006]")
     sim = Simulation(cfg, comm)
     sim.run(output=Output(comm, str(a), C.STEM, cfg, sim.n_total))
     state = read_state(str(a / name(0)))

@@ -42,6 +42,9 @@ class Scene:
     max_kinetic_energy: Callable = lambda cfg, mass, t: math.inf
     # plates at x = 0 and x = L (wall particles beyond them); else x is periodic with length L
     walls: bool = True
+    # wall_theta(cfg, x) -> the volume fraction wall particles at x hold; None: theta_0
+    # (PHYSICS.md: wall theta is not evolved; held at theta_0 or mirrored)
+    wall_theta: Optional[Callable] = None
 
 
 def get_scene(name):

@@ -31,27 +31,32 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[2]
-PAPER = REPO / "run" / "couette_paper.toml"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "mpi_helpers"))
+from launch import MPI_ENV as _LAUNCH_ENV, PAPER, PYTHON, REPO, under_mpirun  # noqa: E402,F401
+
 STEM = "couette_paper"
-PYTHON = sys.executable
 DT = 1e-5  # the paper's time step
 SHORT = ("domain.Ly=0.002",)  # 10 rows: 560 particles, a few hundred steps per second on 1 core
 N_SHORT = 560
 FIELDS = ("id", "kind", "mass", "position", "velocity", "theta")
 
-MPI_ENV = {"OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1",
-           "OMPI_MCA_btl": "self,vader", "OMPI_MCA_rmaps_base_oversubscribe": "1",
-           "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+MPI_ENV = {**_LAUNCH_ENV, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 
 
-def under_mpirun():
-    """True inside a process started by mpirun (where launching mpirun again fails)."""
-    if any(k in os.environ for k in ("OMPI_COMM_WORLD_SIZE", "PMIX_RANK", "PMI_RANK", "PMI_SIZE")):
-        return True
-    if "mpi4py.MPI" in sys.modules:
-        return sys.modules["mpi4py.MPI"].COMM_WORLD.size > 1
-    return False
+def comm_world_case(tmp, names, *over):
+    """COMM_WORLD, the paper case in a box short enough for tests (slabs >= 2h on any rank count)
+    with run-file overrides ``over``, and empty directories ``tmp/<name>`` made by rank 0."""
+    from mpi4py import MPI
+    from parsph import config
+    comm = MPI.COMM_WORLD
+    ly = max(10, 4 * comm.size) * 2e-4
+    cfg = config.load(PAPER, [f"domain.Ly={ly!r}", *over])
+    dirs = [tmp / n for n in names]
+    if comm.rank == 0:
+        for d in dirs:
+            d.mkdir()
+    comm.Barrier()
+    return comm, cfg, dirs
 
 
 _CACHE = None

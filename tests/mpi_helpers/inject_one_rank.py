@@ -1,0 +1,56 @@
+"""Run ``parsph run`` with a fault injected on one rank at a given step.
+
+    mpirun -n 2 python tests/mpi_helpers/inject_one_rank.py raise|nan RANK STEP -- parsph-run-args...
+
+``raise``: on rank RANK, ``Simulation.advance`` raises RuntimeError("injected
+failure") when it is called at step STEP; the other ranks run on normally and
+must not hang.
+
+``nan``: on rank RANK, right after the ``Simulation.advance`` that reaches step
+STEP, the y velocity of its first owned fluid particle becomes NaN. Either the
+run-time checks (every ``checks.every`` steps, on the state before the next
+step) or, between two checks, the per-step collective flag raised by the next
+integration (non-finite positions) must then stop every rank with exit code 3
+and one message.
+
+The exit status is that of ``parsph.cli.main``.
+"""
+import sys
+
+import numpy as np
+from mpi4py import MPI
+
+import parsph.solver
+from parsph import cli
+from parsph.particles import FLUID
+
+
+def put_nan(sim, rank, step):
+    ps = sim.ps
+    k = int(np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[0])
+    ps.vel[k, 1] = np.nan
+    # one write (with its newline), so that mpirun cannot join it with another line
+    sys.stderr.write(f"nan_one_rank: NaN put into particle {ps.gid[k]} on rank {rank} at step {step}\n")
+    sys.stderr.flush()
+
+
+def main(argv):
+    mode, rank, step = argv[0], int(argv[1]), int(argv[2])
+    rest = argv[4:] if argv[3:4] == ["--"] else argv[3:]
+    if MPI.COMM_WORLD.rank == rank:
+        original = parsph.solver.Simulation.advance
+
+        def advance(self, dt, stop_requested=None):
+            if mode == "raise" and self.step == step:
+                raise RuntimeError("injected failure")
+            stop = original(self, dt, stop_requested)
+            if mode == "nan" and self.step == step:
+                put_nan(self, rank, step)
+            return stop
+
+        parsph.solver.Simulation.advance = advance
+    return cli.main(["run", *rest])
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
