@@ -177,15 +177,17 @@ def _run(comm, args, say, signals):
     sim = _agree(comm, lambda: Simulation(cfg, comm, state=state))
     if not cfg.dt_auto and cfg.dt > min(cfg.limits.values()):
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
-    steps = f"{cfg.nsteps} steps" if not cfg.dt_auto else f"about {cfg.nsteps} steps (dt auto)"
+    steps = f"dt = {cfg.dt:.4g} s, {cfg.nsteps} steps" if not cfg.dt_auto else \
+        f"dt auto (at most {cfg.dt:.4g} s, less where the state needs it)"
     start = f" from t = {sim.t:g} s (step {sim.step})" if state is not None else ""
     say(f"parsph {cfg.values['scene']['name']}: {sim.n_total} particles on {comm.size} rank(s), "
-        f"dt = {cfg.dt:.4g} s, {steps} to t = {cfg.t_end:g} s{start}; "
+        f"{steps} to t = {cfg.t_end:g} s{start}; "
         f"Re = {cfg.reynolds:.4g}, nu = {cfg.nu:.4g} m^2/s -> {out_dir}/{stem}_NNNN.h5")
     out = Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first)
 
     def progress(s, rate, eta):
-        say(f"  step {s.step:>7d}/{cfg.nsteps}  t = {s.t:.5f} s  {rate:.3g} particle-steps/s  "
+        of = "" if cfg.dt_auto else f"/{cfg.nsteps}"
+        say(f"  step {s.step:>7d}{of}  t = {s.t:.5f} s  {rate:.3g} particle-steps/s  "
             f"left {_fmt_time(eta)}")
 
     step0 = sim.step
