@@ -204,11 +204,11 @@ def _run(comm, args, say, signals):
 def _fits_in_memory(comm, cfg):
     """Refuse a run whose particles cannot fit in the memory of the nodes in use."""
     from mpi4py import MPI
-    from .config import BYTES_PER_PARTICLE, ConfigError
+    from .config import ConfigError, bytes_per_particle
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     hosts = dict(comm.allgather((MPI.Get_processor_name(), mem)))
     have = sum(hosts.values())
-    need = cfg.n_particles * BYTES_PER_PARTICLE
+    need = cfg.n_particles * bytes_per_particle(cfg)
     if need > 0.8 * have:
         raise ConfigError("numerics.Nx", f"{cfg.n_particles:,} particles need about {need / 1e9:.3g} GB, "
                           f"more than 80% of the {have / 1e9:.3g} GB of memory on {len(hosts)} node(s)")

@@ -14,9 +14,22 @@ from .integrate import INTEGRATORS
 from .scenes import SCENE_NAMES, get_scene
 
 REQUIRED = object()
-# Upper bound of resident memory per particle [bytes] (measured: README, "Performance"),
-# used to refuse runs that cannot fit before anything is allocated.
-BYTES_PER_PARTICLE = 1024
+
+
+def bytes_per_particle(cfg):
+    """An upper bound of the resident memory per particle [bytes], to refuse runs that cannot fit.
+
+    Fields (about 300 + 100 dim bytes) plus the neighbour list, 12 bytes per
+    entry for the neighbours within 2h (the disc or ball's lattice points,
+    +25% for a compressed lattice) and a margin of 4, with 30% spare capacity.
+    Measured (README, "Performance"): 550 B in 2-D, 1.7 KB in 3-D at
+    h = 1.25 dx; this gives 950 B and 1.9 KB.
+    """
+    import math
+    reach = 2.0 * cfg.h
+    cells = [reach / s for s in cfg.spacing]
+    ball = math.pi * cells[0] * cells[1] if cfg.dim == 2 else 4.0 / 3.0 * math.pi * math.prod(cells)
+    return 300 + 100 * cfg.dim + 1.3 * 12 * (1.25 * ball + 4)
 
 
 class ConfigError(Exception):
