@@ -24,21 +24,23 @@ The loops work on copies of the particle fields in cell order (see
 :mod:`parsph.neighbours`), positions and velocities as separate x, y, z
 arrays (z = 0 in 2-D, so one code path serves both), and write their results
 straight back to the particle arrays through ``order``. The density pass
-finds each fluid particle's neighbours among the 3^dim surrounding cells:
-the three cells along x of one row are consecutive in cell order, so it walks
-3^(dim-1) contiguous runs of candidates, in a fixed order and by gid inside a
-cell, evaluating the kernel without branches (a candidate beyond 2h adds an
-exact zero). It stores the neighbours, with (dW/dr)/r, in a list of fixed
-width per particle that the momentum pass walks in the same order. Every sum
-is thus taken in an order that does not depend on the decomposition, and
-each particle's sum is independent of the others': the loops run over
-particles with ``prange`` (threads inside a rank, ``--threads``), with the
-same result bit for bit on any thread count. These functions know nothing of
-MPI: halo copies are ordinary neighbours.
+finds each fluid particle's neighbours row by row: for every row of cells
+(along x) within 2h of it, the cells of that row that meet its disc of
+radius 2h are consecutive in cell order, so their particles are one
+contiguous run of candidates, visited in a fixed order and by gid inside a
+cell. Candidates within 2h get W and (dW/dr)/r from a branch-free kernel
+function; the density pass stores them in a neighbour list of fixed width
+per particle that the momentum pass walks in the same order. Every sum is
+thus taken in an order that does not depend on the decomposition, and each
+particle's sum is independent of the others': the loops run over particles
+with ``prange`` (threads inside a rank, ``--threads``), with the same result
+bit for bit on any thread count. Wall particles hold their density (set by
+the solver). These functions know nothing of MPI: halo copies are ordinary
+neighbours.
 
 The switches (pressure, viscosity, symmetric viscosity, walls, consistent
-pressure, three dimensions) are compile-time constants made by :func:`switch`: an empty tuple is
-off, ``(1,)`` is on, so each value is its own type, numba compiles one version
+pressure, three dimensions) are compile-time constants made by
+:func:`switch`: an empty tuple is off, ``(1,)`` is on, so each value is its own type, numba compiles one version
 per combination a scene uses, ``len(switch)`` is a constant, and a term
 switched off leaves no branch in the pair loop. (``numba.literally`` does the
 same but costs tens of milliseconds per call.)

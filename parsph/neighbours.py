@@ -1,12 +1,13 @@
-"""Cell linked list (cells of side >= 2h) and the cell-ordered copies the loops read.
+"""Cell linked list and the cell-ordered copies the loops read.
 
 Cell coordinates are global: ``floor((x - x0) / cs)``, ``floor(y / cs)`` and
 ``floor(z / cs)`` (``y`` including the periodic shift of halo copies), so a
 particle falls into the same cell whatever the number of ranks. Particles are
-copied into cell order, by global id inside a cell. Loops that visit the
-3^dim neighbour cells in a fixed order therefore add up contributions in the
-same order on any rank count: results do not depend on P, bit for bit. Cell
-order also puts neighbours next to each other in memory.
+copied into cell order (x fastest), by global id inside a cell. Loops that
+visit the cells around a particle in a fixed order therefore add up
+contributions in the same order on any rank count: results do not depend on
+P, bit for bit. Cell order also puts neighbours next to each other in memory,
+and makes the cells of one row along x a contiguous run.
 """
 import numpy as np
 from numba import njit
