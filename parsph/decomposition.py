@@ -47,10 +47,6 @@ class DecompositionError(Exception):
     """A decomposition that cannot work (slabs too thin)."""
 
 
-class MigrationError(RuntimeError):
-    """A particle moved further than the neighbouring slab in one step."""
-
-
 class SlabRing:
     """The slab of this rank, its two neighbours and the exchange buffers."""
 
@@ -167,40 +163,35 @@ class SlabRing:
         arr[ps.n_own:ps.n_own + nl] = from_left[:, 0]
         arr[ps.n_own + nl:ps.n_own + nl + nr] = from_right[:, 0]
 
-    def count_strays(self, ps):
-        """Owned particles whose new owner is not this rank nor a neighbour (a blow-up)."""
-        nu, nd = self._select(ps, self.lo, self.hi)
-        if nu + nd == 0:
-            return 0
-        idx = np.concatenate([self._idx[TAG_UP][:nu], self._idx[TAG_DOWN][:nd]])
-        y = ps.pos[idx, 1]
-        ok = np.isfinite(y)
-        owner = np.searchsorted(self.bounds, y[ok], side="right") - 1
-        return int((~ok).sum() + ((owner != self.left) & (owner != self.right) & (owner != self.rank)).sum())
-
-    # -- migration ----------------------------------------------------------
-    def migrate(self, ps):
-        """Hand owned particles that left the slab to the neighbour that owns them now.
+    def leaving(self, ps):
+        """``(indices, owners)``: the owned particles now outside this slab, ascending, and their owners.
 
         Positions are already wrapped into [0, Ly), so the owner, not the sign
-        of the motion, decides the direction (rank 0's particles that cross
-        y = 0 go to rank P-1).
+        of the motion, decides where a particle goes (rank 0's particles that
+        cross y = 0 go to rank P-1). A non-finite y has owner -1.
+        """
+        nu, nd = self._select(ps, self.lo, self.hi)
+        gone = np.sort(np.concatenate([self._idx[TAG_UP][:nu], self._idx[TAG_DOWN][:nd]]))
+        y = ps.pos[gone, 1]
+        owner = np.where(np.isfinite(y), np.searchsorted(self.bounds, y, side="right") - 1, -1)
+        return gone, owner
+
+    def count_strays(self, leaving):
+        """How many of ``leaving`` (from :meth:`leaving`) belong to neither neighbour (a blow-up)."""
+        _, owner = leaving
+        return int(((owner != self.left) & (owner != self.right) & (owner != self.rank)).sum())
+
+    # -- migration ----------------------------------------------------------
+    def migrate(self, ps, leaving):
+        """Hand the particles ``leaving`` (from :meth:`leaving`) to the neighbour that owns them now.
+
+        Every rank must have found ``count_strays(leaving)`` zero: the others
+        go to the left neighbour.
         """
         ps.n = ps.n_own
-        nu, nd = self._select(ps, self.lo, self.hi)
-        up = down = gone = self._idx[TAG_UP][:0]
-        if nu + nd:
-            gone = np.sort(np.concatenate([self._idx[TAG_UP][:nu], self._idx[TAG_DOWN][:nd]]))
-            y = ps.pos[gone, 1]
-            owner = np.searchsorted(self.bounds, y, side="right") - 1
-            to_right = owner == self.right
-            bad = ~to_right & (owner != self.left)
-            if bad.any():
-                k = gone[np.argmax(bad)]
-                raise MigrationError(
-                    f"particle {ps.gid[k]} at y = {ps.pos[k, 1]:.6g} m left slab [{self.lo:.6g}, {self.hi:.6g}) "
-                    f"of rank {self.rank} by more than one slab in one step (dt too large or the run blew up)")
-            up, down = gone[to_right], gone[~to_right]
+        gone, owner = leaving
+        to_right = owner == self.right
+        up, down = gone[to_right], gone[~to_right]
         width = ps.row_width
         for tag, sel in ((TAG_UP, up), (TAG_DOWN, down)):
             ps.pack(sel, len(sel), self._buf("send", tag, len(sel), width))

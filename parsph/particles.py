@@ -105,10 +105,21 @@ def _unpack(rows, start, gid, kind, mass, pos, vel, rho):
         rho[i] = rows[r, 3 + 2 * d]
 
 
+@njit(cache=True, inline="always")
+def _copy(i, j, gid, kind, mass, pos, vel, rho):
+    """Particle i's fields into place j."""
+    gid[j] = gid[i]
+    kind[j] = kind[i]
+    mass[j] = mass[i]
+    rho[j] = rho[i]
+    for c in range(pos.shape[1]):
+        pos[j, c] = pos[i, c]
+        vel[j, c] = vel[i, c]
+
+
 @njit(cache=True)
 def _compact(gone, k, n, gid, kind, mass, pos, vel, rho):
     """Remove indices gone[:k] (ascending) from 0..n-1 in place; return the new count."""
-    d = pos.shape[1]
     w = 0
     g = 0
     for i in range(n):
@@ -116,38 +127,26 @@ def _compact(gone, k, n, gid, kind, mass, pos, vel, rho):
             g += 1
             continue
         if w != i:
-            gid[w] = gid[i]
-            kind[w] = kind[i]
-            mass[w] = mass[i]
-            rho[w] = rho[i]
-            for c in range(d):
-                pos[w, c] = pos[i, c]
-                vel[w, c] = vel[i, c]
+            _copy(i, w, gid, kind, mass, pos, vel, rho)
         w += 1
     return w
 
 
 @njit(cache=True)
-def add_images(gid, kind, mass, pos, vel, n, axis, period, width, src):
+def add_images(gid, kind, mass, pos, vel, rho, n, axis, period, width, src):
     """Append periodic copies of particles 0..n-1 lying within ``width`` of either end of [0, period).
 
     Copies are shifted by +period (near 0) or -period (near the top); ``src``
     receives each copy's original index. Returns the number of copies (the
     arrays must have room for them: see :func:`count_images`).
     """
-    d = pos.shape[1]
     k = 0
     for i in range(n):
         x = pos[i, axis]
         for shift in (period, -period):
             if (shift > 0.0 and x < width) or (shift < 0.0 and x >= period - width):
                 j = n + k
-                gid[j] = gid[i]
-                kind[j] = kind[i]
-                mass[j] = mass[i]
-                for c in range(d):
-                    pos[j, c] = pos[i, c]
-                    vel[j, c] = vel[i, c]
+                _copy(i, j, gid, kind, mass, pos, vel, rho)
                 pos[j, axis] = x + shift
                 src[k] = i
                 k += 1

@@ -48,7 +48,6 @@ class Simulation:
         self.comm = comm
         self.scene = cfg.scene
         self.kernel = get_kernel(cfg.kernel, cfg.dim)
-        self.norm = self.kernel.norm(cfg.h, cfg.dim)
         self.support = self.kernel.support * cfg.h
         # The midpoint state is not migrated: a skin covers its half-step drift
         # (the CFL limit keeps that below h/8).
@@ -123,7 +122,7 @@ class Simulation:
             k = count_images(ps.pos, n, axis, period, self.halo)
             ps.ensure(n + k, keep=n)
             src = np.zeros(k, np.int64)
-            add_images(ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, n, axis, period, self.halo, src)
+            add_images(ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, ps.rho, n, axis, period, self.halo, src)
             self._images.append((n, src, k))
             ps.n = n + k
 
@@ -153,9 +152,10 @@ class Simulation:
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         t1 = time.perf_counter()
-        bad += self.ring.count_strays(ps)
+        leaving = self.ring.leaving(ps)
+        bad += self.ring.count_strays(leaving)
         stop = self._agree(bad, stop_requested() if stop_requested is not None else 0)
-        self.ring.migrate(ps)
+        self.ring.migrate(ps, leaving)
         T["integrate"] += t1 - t0
         T["migrate"] += time.perf_counter() - t1
         return stop

@@ -138,7 +138,7 @@ def reference(sim, repeat=20):
         ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, ps.n_own, sim.x0, sim.support,
         W.order, W.cell_of, W.tmp, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.owned)
     start, ncx, ncy = grid[:3]
-    dargs = (n, W.sx, W.sy, W.sm, W.cell_of, start, ncx, ncy, cfg.h, sim.norm, np.zeros(n))
+    dargs = (n, W.sx, W.sy, W.sm, W.cell_of, start, ncx, ncy, cfg.h, sim.kernel.norm(cfg.h, cfg.dim), np.zeros(n))
     result["density"] = timed(reference_density, dargs, repeat) / pairs * 1e9
     return result
 

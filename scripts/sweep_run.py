@@ -123,7 +123,7 @@ def main(argv):
     except GuardError as e:
         status = f"failed: {e}"
         wall = time.perf_counter() - t_wall0
-    except Exception as e:  # noqa: BLE001 - e.g. MigrationError: a particle jumped more than a slab
+    except Exception as e:  # noqa: BLE001 - a blown-up state can fail elsewhere (e.g. numerics); record it
         status = f"failed: {type(e).__name__}: {e}"
         wall = time.perf_counter() - t_wall0
     cpu = time.process_time() - t_cpu0
