@@ -27,10 +27,10 @@ class Workspace:
     def __init__(self):
         self.capacity = 0
         self.width = 1  # the loops need one slot to write into; the first pass widens it
-        self.ensure(0)
+        self.ensure(1)
 
     def ensure(self, n):
-        if n > self.capacity or self.capacity == 0:
+        if n > self.capacity:
             cap = max(n, int(1.3 * self.capacity), 64)
             for name in self.FIELDS_F:
                 setattr(self, name, np.zeros(cap))
