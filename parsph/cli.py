@@ -266,8 +266,13 @@ def cmd_plot(args):
     colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
     L = p["attrs"]["L"]
     field = p["attrs"].get("error_field", "vy")
+    # the reference on a fine grid over the whole channel, so its lines reach the plates
+    from .config import loads
+    cfg = loads(p["attrs"]["run_file"])
+    x_fine = np.linspace(0.0, L, 401)
     for c, t, sim, ref in zip(colors, p["time"], p[field], p[field + "_exact"]):
-        ax.plot(p["x"] / L, ref, "-", color=c, lw=1.2)
+        if cfg.scene.reference is not None and np.all(np.isfinite(ref)):
+            ax.plot(x_fine / L, cfg.scene.reference(cfg, x_fine, t)[field], "-", color=c, lw=1.2)
         ax.plot(p["x"] / L, sim, "o", color=c, ms=3, label=f"t = {t:g} s")
     ax.set_xlabel("x / L")
     ax.set_ylabel({"vy": "v_y [m/s]", "theta": "theta"}[field])
