@@ -253,6 +253,20 @@ def cmd_check(args):
     return 0
 
 
+def reference_lines(p, points=401):
+    """The scene's reference at each output time on a fine grid over [0, L] (None where it has none),
+    so that the plotted lines reach the plates; p is read_profile's dict."""
+    import numpy as np
+    from .config import loads
+    cfg = loads(p["attrs"]["run_file"])
+    field = p["attrs"].get("error_field", "vy")
+    x = np.linspace(0.0, p["attrs"]["L"], points)
+    lines = [cfg.scene.reference(cfg, x, t)[field]
+             if cfg.scene.reference is not None and np.all(np.isfinite(ref)) else None
+             for t, ref in zip(p["time"], p[field + "_exact"])]
+    return x, lines
+
+
 def cmd_plot(args):
     import matplotlib
     matplotlib.use("Agg")
@@ -266,13 +280,10 @@ def cmd_plot(args):
     colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
     L = p["attrs"]["L"]
     field = p["attrs"].get("error_field", "vy")
-    # the reference on a fine grid over the whole channel, so its lines reach the plates
-    from .config import loads
-    cfg = loads(p["attrs"]["run_file"])
-    x_fine = np.linspace(0.0, L, 401)
-    for c, t, sim, ref in zip(colors, p["time"], p[field], p[field + "_exact"]):
-        if cfg.scene.reference is not None and np.all(np.isfinite(ref)):
-            ax.plot(x_fine / L, cfg.scene.reference(cfg, x_fine, t)[field], "-", color=c, lw=1.2)
+    x_fine, lines = reference_lines(p)
+    for c, t, sim, line in zip(colors, p["time"], p[field], lines):
+        if line is not None:
+            ax.plot(x_fine / L, line, "-", color=c, lw=1.2)
         ax.plot(p["x"] / L, sim, "o", color=c, ms=3, label=f"t = {t:g} s")
     ax.set_xlabel("x / L")
     ax.set_ylabel({"vy": "v_y [m/s]", "theta": "theta"}[field])

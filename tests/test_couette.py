@@ -4,10 +4,10 @@ import pytest
 from mpi4py import MPI
 
 from parsph import config
-from parsph.analytic import couette_velocity
+from parsph.analytic import couette_velocity, couette_velocity_images
 from parsph.solver import Simulation
 
-from conftest import paper_raw
+from conftest import PAPER_TOML, paper_raw
 
 T_END = 0.02  # s: 2,000 steps of the paper's dt = 1e-5 s
 
@@ -109,3 +109,21 @@ def test_auto_dt_midpoint_lands_on_output_times(coarse):
         assert ea[0] == pytest.approx(ef[0], rel=0.05)
         assert ea[1] == pytest.approx(ef[1], rel=0.05)
         assert ea[0] < 0.06
+
+
+def test_plot_reference_lines_reach_the_plates():
+    """`parsph plot` draws Eq. (8) on a fine grid over [0, L]: 0 at the fixed plate, V_w at the moving one."""
+    from parsph.cli import reference_lines
+    text = PAPER_TOML.read_text()
+    cfg = config.loads(text)
+    times = np.array([1e-4, 0.01, 0.5])
+    p = {"attrs": {"run_file": text, "L": cfg.L}, "time": times,
+         "vy_exact": np.zeros((3, 50)), "theta_exact": np.full((3, 50), np.nan)}
+    x, lines = reference_lines(p, points=101)
+    assert x[0] == 0.0 and x[-1] == cfg.L
+    for t, line in zip(times, lines):
+        assert line[0] == pytest.approx(0.0, abs=1e-12)
+        assert line[-1] == pytest.approx(cfg.V_w, rel=1e-9)
+        np.testing.assert_allclose(line, couette_velocity_images(x, t, cfg.nu, cfg.L, cfg.V_w), atol=1e-12)
+    p["vy_exact"][1] = np.nan  # an output without a reference gets no line
+    assert reference_lines(p)[1][1] is None
