@@ -58,6 +58,17 @@ def main(path):
                 s = r2["particle_steps_per_s"] / r1["particle_steps_per_s"]
                 vs = f"{100 * s / ceiling:.0f}%" if ceiling else "-"
                 print(f"| {nx}, {tag} | {s:.2f} | {100 * s / 2:.0f}% | {vs} |")
+    # halo and migration: the slowest rank's time per step (waiting for the other rank included)
+    # and, where recorded, the least over ranks (closer to the messages' own cost)
+    print("\n| N_x | ranks x threads | step [ms] | halo [ms] | migration [ms] | halo + migration, share of the step "
+          "| least over ranks |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for tag in ("1 rank", "2 ranks"):
+        for nx, r in sorted(by.get(tag, {}).items()):
+            ph, lo = r["phases_s"], r.get("phases_min_s")
+            least = f"{100 * (lo['halo'] + lo['migrate']) / r['step_s']:.1f}%" if lo else "-"
+            print(f"| {nx} | {r['ranks']} x {r.get('threads', 1)} | {r['step_s'] * 1e3:.2f} | {ph['halo'] * 1e3:.2f} | "
+                  f"{ph['migrate'] * 1e3:.2f} | {100 * (ph['halo'] + ph['migrate']) / r['step_s']:.1f}% | {least} |")
     print(f"\nMachine: {recs[0]['machine']}")
 
 

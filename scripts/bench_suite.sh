@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # The benchmark suite of README "Performance": the paper size (N_x = 50),
+# N_x = 160 (10x the paper case, for the halo and migration share),
 # N_x = 200 and N_x = 400 on 1 and 2 ranks, plus the machine's ceiling for two
 # busy processes (two independent one-rank runs at once against one alone),
 # and one rank with two threads.
@@ -21,8 +22,8 @@ ROUNDS=${PARSPH_BENCH_ROUNDS:-3}
 # once per round, rounds alternate, and the report keeps each one's best.
 for r in $(seq "$ROUNDS"); do
     echo "== round $r of $ROUNDS"
-    $PY scripts/bench.py --nx 50 200 400 --budget "$B" --json "$J" --tag "1 rank"
-    mpirun -n 2 $PARSPH_MPIRUN_FLAGS $PY scripts/bench.py --nx 50 200 400 --budget "$B" --json "$J" --tag "2 ranks"
+    $PY scripts/bench.py --nx 50 160 200 400 --budget "$B" --json "$J" --tag "1 rank"
+    mpirun -n 2 $PARSPH_MPIRUN_FLAGS $PY scripts/bench.py --nx 50 160 200 400 --budget "$B" --json "$J" --tag "2 ranks"
     NUMBA_NUM_THREADS=2 $PY scripts/bench.py --nx 50 200 400 --budget "$B" --threads 2 --json "$J" --tag "1 rank, 2 threads"
     $PY scripts/bench.py --nx 200 --budget "$B" --json "$J" --tag "alone $r"
     $PY scripts/bench.py --nx 200 --budget "$B" --json "$J" --tag "pair-a $r" &
