@@ -178,7 +178,7 @@ def _run(comm, args, say, signals):
     if not cfg.dt_auto and cfg.dt > min(cfg.limits.values()):
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
     steps = f"dt = {cfg.dt:.4g} s, {cfg.nsteps} steps" if not cfg.dt_auto else \
-        f"dt auto (at most {cfg.dt:.4g} s, less where the state needs it)"
+        f"dt auto ({cfg.dt:.4g} s at theta0, the {min(cfg.limits, key=cfg.limits.get)} limit; recomputed every step)"
     start = f" from t = {sim.t:g} s (step {sim.step})" if state is not None else ""
     say(f"parsph {cfg.values['scene']['name']}: {sim.n_total} particles on {comm.size} rank(s), "
         f"{steps} to t = {cfg.t_end:g} s{start}; "

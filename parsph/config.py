@@ -292,15 +292,37 @@ class RunConfig:
         return self.values[section][key]
 
 
-def dt_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0):
-    """Stability limits of PHYSICS.md: CFL, viscous and force [s] (inf where absent)."""
+DAMPING = 0.1   # C_d of the damping limit: measured stable down to about 0.12-0.13 nu/c^2 (docs/stability.md)
+
+
+def damping_limit(theta, k, G_a, G_b):
+    """The paper integrator's damping limit C_d nu / c^2 = C_d k theta / G(theta) [s].
+
+    Eq. (7) is first order in v: it amplifies a pressure wave by |lambda|^2 =
+    1 - gamma dt + omega^2 dt^2 / 2 per step, which only viscosity damps
+    (docs/stability.md, section 1). nu / c^2 falls as theta rises: evaluate it
+    at the largest theta. Independent of h.
+    """
+    return DAMPING * k * theta / closures.modulus(theta, G_a, G_b) if k > 0 else math.inf
+
+
+def dt_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, integrator=None):
+    """Stability limits [s] (inf where absent): CFL, viscous and force of PHYSICS.md, and with
+    ``integrator = "paper"`` the damping limit of that integrator (``damping_limit``).
+
+    The one definition of each: ``config.build`` checks a fixed dt and sets the first
+    automatic one with it, ``Simulation.stable_dt`` recomputes it every step.
+    """
     c = math.sqrt(closures.modulus(theta, G_a, G_b) / rho_s)
     nu = k * theta / rho_s
-    return {
+    lim = {
         "cfl": 0.25 * h / (c + vmax) if c + vmax > 0 else math.inf,
         "viscous": 0.125 * h * h / nu if nu > 0 else math.inf,
         "force": 0.25 * math.sqrt(h / amax) if amax > 0 else math.inf,
     }
+    if integrator == "paper":
+        lim["damping"] = damping_limit(theta, k, G_a, G_b)
+    return lim
 
 
 def build(raw, text):
@@ -360,7 +382,7 @@ def build(raw, text):
         viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
     try:
         limits = dt_limits(h, theta0, mat["rho_s"], mat["k"], mat["G_a"], mat["G_b"],
-                           cfg.velocity_scale, math.sqrt(sum(x * x for x in g)))
+                           cfg.velocity_scale, math.sqrt(sum(x * x for x in g)), num["integrator"])
     except OverflowError:
         key = "material.G_a" if abs(mat["G_a"] * theta0) >= abs(mat["G_b"]) else "material.G_b"
         raise ConfigError(key, f"G(theta0) = 10^({mat['G_a']:g} theta0 + {mat['G_b']:g}) overflows") from None

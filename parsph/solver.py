@@ -15,7 +15,6 @@ import numpy as np
 from mpi4py import MPI
 
 from . import equations, integrate
-from .closures import modulus
 from .config import dt_limits
 from .decomposition import SlabRing
 from .kernels import get_kernel, lattice_sum
@@ -183,12 +182,8 @@ class Simulation:
         self.comm.Allreduce(local, glob, op=MPI.MAX)
         vmax, theta_max, amax = glob
         theta_max = min(theta_max, 0.999)
-        lim = dt_limits(cfg.h, theta_max, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax)
-        if cfg.integrator == "paper" and cfg.k > 0:
-            # Eq. (7) is first order in v: it amplifies pressure waves, |lambda|^2 = 1 - gamma dt
-            # + omega^2 dt^2 / 2, which only viscosity damps; measured stable down to 0.13 nu/c^2
-            # (docs/stability.md), so auto keeps 0.1 nu / c^2 = 0.1 k theta / G(theta).
-            lim["damping"] = 0.1 * cfg.k * theta_max / modulus(theta_max, cfg.G_a, cfg.G_b)
+        # the same limits as config.build's, at the current state (the damping one at theta_max)
+        lim = dt_limits(cfg.h, theta_max, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax, cfg.integrator)
         return min(lim.values())
 
     # ---- reductions ------------------------------------------------------------

@@ -7,9 +7,12 @@ criteria of scripts/stability_map.py, checked at every step: all values
 finite, no fluid particle beyond a wall plane, |theta - theta_0| / theta_0 <=
 THETA_FRAC, fluid kinetic energy <= 1/2 M V_w^2.
 
-Tests marked xfail(strict) state requirements of the issue that the solver
-does not meet yet; docs/stability.md ("What the solver still needs") gives
-the change. When the solver is fixed they XPASS, which fails: remove the mark.
+The predicted limit of the map (``predicted_limit``) is min(CFL, viscous,
+force); the limit a run gets (``run_limit``: config.build's refusal, the first
+dt = "auto" and Simulation.stable_dt) adds the paper integrator's damping
+limit, which binds at dense packing (at theta_0 = 0.7, k = 1: 7.87e-7 s).
+The guards' own tests (worst particle, theta range, check 5 on 4 ranks) are
+in tests/test_guards.py.
 """
 import math
 import os
@@ -41,6 +44,7 @@ THETA_FRAC = 0.2
 L = 0.01
 RHO_S = 2000.0
 LIMIT_07 = 8.150929206793097e-06   # predicted limit (CFL) at theta_0 = 0.7, N_x = 50, k = 1
+DAMPING_07 = 7.872234817768488e-07  # the paper integrator's damping limit there: 0.1 k theta / G(theta)
 needs_mpirun = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself")
 
 
@@ -49,16 +53,18 @@ def k_for(Re, theta0):
     return 1.0 * L * RHO_S / (Re * theta0)
 
 
-def predicted_limit(theta0, k, nx=50):
-    return min(dt_limits(1.25 * L / nx, theta0, RHO_S, k, 8.76, -1.183, 1.0).values())
+def predicted_limit(theta0, k, nx=50, integrator=None):
+    """min(CFL, viscous, force); with an integrator, the limit a run gets (damping too for "paper")."""
+    return min(dt_limits(1.25 * L / nx, theta0, RHO_S, k, 8.76, -1.183, 1.0, integrator=integrator).values())
 
 
 def make_cfg(theta0=0.35, k=1.0, nx=50, dt="auto", steps=STEPS, times=(), extra=()):
-    """The paper case with h = 1.25 dx, L_y = 8 h; t_end = steps * dt (auto: the limit at t = 0)."""
+    """The paper case with h = 1.25 dx, L_y = 8 h; t_end = steps * dt (auto: the run's limit at t = 0)."""
     raw = paper_raw()
     raw["numerics"].pop("h")
     h = 1.25 * L / nx
-    dt0 = predicted_limit(theta0, k, nx) if dt == "auto" else dt
+    integrator = next((e.split("=")[1].strip('"') for e in extra if e.startswith("numerics.integrator=")), "paper")
+    dt0 = predicted_limit(theta0, k, nx, integrator) if dt == "auto" else dt
     over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}", "numerics.h_over_dx=1.25",
             f"domain.Ly={8 * h!r}", f"numerics.dt={dt!r}" if dt != "auto" else 'numerics.dt="auto"',
             f"output.t_end={steps * dt0!r}", f"output.times={list(times)!r}", "output.progress_interval=0",
@@ -110,30 +116,49 @@ def assert_stable(sim, steps=STEPS):
 
 # ---- theta_0 = 0.7 -----------------------------------------------------------------------------------
 def test_dense_with_the_paper_dt_is_refused_naming_the_limit(tmp_path):
-    """theta_0 = 0.7, dt = 1e-5 s (the paper's): above the CFL limit 8.15e-6 s, refused before the run."""
+    """theta_0 = 0.7, dt = 1e-5 s (the paper's): above the damping limit 7.87e-7 s, refused before the run."""
     with pytest.raises(ConfigError) as e:
         config.load(str(PAPER_TOML), ["material.theta0=0.7"])
     assert e.value.key == "numerics.dt"
-    assert "8.15e-06" in str(e.value) and "cfl" in str(e.value), e.value
+    assert "7.87e-07" in str(e.value) and "(damping)" in str(e.value), e.value
     assert predicted_limit(0.7, 1.0) == pytest.approx(LIMIT_07, rel=1e-12)
+    assert predicted_limit(0.7, 1.0, integrator="paper") == pytest.approx(DAMPING_07, rel=1e-12)
     # the command line: exit 2, one line with the limit, nothing written
     out = tmp_path / "out"
     rc, stdout, stderr = run_cli("run", PAPER_TOML, "--set", "material.theta0=0.7", "--out", out, "--quiet")
     assert rc == 2, (stdout, stderr)
     lines = [ln for ln in stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("parsph: error: numerics.dt:"), stderr
-    assert "8.15e-06 s" in lines[0] and "allow_unstable_dt" in lines[0], stderr
+    assert "7.87e-07 s (damping)" in lines[0] and "allow_unstable_dt" in lines[0], stderr
     assert not out.exists() or not any(out.iterdir())
     # the expert's override is accepted (and warned about at run time: test_forced_blowup_cli)
     cfg = config.load(str(PAPER_TOML), ["material.theta0=0.7", "numerics.allow_unstable_dt=true"])
     assert cfg.dt == 1e-5 and cfg.dt > min(cfg.limits.values())
 
 
+def test_dense_below_the_cfl_but_above_the_damping_limit_is_refused():
+    """theta_0 = 0.7, fixed dt = 5e-6 s: inside the CFL limit (8.15e-6 s) but the map shows the paper
+    integrator fails there (stable only to 2-2.9e-6 s at Re = 57); refused, naming the damping limit.
+    The midpoint integrator has no damping limit: accepted."""
+    with pytest.raises(ConfigError) as e:
+        make_cfg(theta0=0.7, k=1.0, dt=5e-6)
+    assert e.value.key == "numerics.dt"
+    assert "5e-06 s is above the stability limit 7.87e-07 s (damping)" in str(e.value), e.value
+    cfg = make_cfg(theta0=0.7, k=1.0, dt=5e-6, extra=['numerics.integrator="midpoint"'])
+    assert "damping" not in cfg.limits and cfg.dt == 5e-6
+
+
 def test_dense_auto_is_stable_for_2000_steps():
-    """theta_0 = 0.7, k = 1 (Re = 28.6), dt = "auto", the paper integrator: 2,000 steps, stable."""
+    """theta_0 = 0.7, k = 1 (Re = 28.6), dt = "auto", the paper integrator: 2,000 steps, stable.
+
+    config.build's first dt and stable_dt's agree: both are the damping limit here."""
     cfg = make_cfg(theta0=0.7, k=1.0)
-    assert cfg.dt_auto and cfg.dt == pytest.approx(LIMIT_07, rel=1e-12)
-    assert_stable(run_probe(cfg))
+    assert cfg.dt_auto and cfg.dt == pytest.approx(DAMPING_07, rel=1e-12)
+    assert min(cfg.limits, key=cfg.limits.get) == "damping"
+    sim = run_probe(cfg)
+    assert_stable(sim)
+    # theta_max grows (to 0.71): dt shrinks to 5.3e-7 s (measured), 2,000 nominal steps take more
+    assert sim.dt <= DAMPING_07 and sim.step <= 1.6 * STEPS, (sim.dt, sim.step)
 
 
 def test_dense_auto_with_the_midpoint_integrator_is_stable_for_2000_steps():
@@ -235,13 +260,15 @@ def _check_name(message):
 
 
 @needs_mpirun
-def test_forced_blowup_guard_fires_on_all_ranks(tmp_path):
-    """dt = 4x the limit at theta_0 = 0.7 with the override, 2 ranks: every rank raises GuardError, same message."""
+@pytest.mark.parametrize("every", [1, 20], ids=["every1", "every20-default"])
+def test_forced_blowup_guard_fires_on_all_ranks(tmp_path, every):
+    """dt = 4x the CFL limit at theta_0 = 0.7 with the override, 2 ranks: every rank raises GuardError,
+    same message; with checks.every = 20 the per-step flag catches the blow-up between checks."""
     script = tmp_path / "all_ranks.py"
     script.write_text(ALL_RANKS)
     out = tmp_path / "out"
     out.mkdir()
-    r = mpirun(launch.PYTHON, script, PAPER_TOML, out, *BLOWUP, "checks.every=1")
+    r = mpirun(launch.PYTHON, script, PAPER_TOML, out, *BLOWUP, f"checks.every={every}")
     assert r.returncode == 0, r
     lines = sorted((out / f"rank{k}.txt").read_text() for k in (0, 1) if (out / f"rank{k}.txt").exists())
     assert [ln.split(":")[0] for ln in lines] == ["rank 0", "rank 1"], r
@@ -267,7 +294,7 @@ def test_forced_blowup_cli(tmp_path, every):
     out = tmp_path / "out"
     r = mpirun(launch.PYTHON, "-m", "parsph", "run", PAPER_TOML, *_sets([*BLOWUP, f"checks.every={every}"]),
                "--out", out, "--quiet")
-    assert "warning: dt = 3.26037e-05 s is above the stability limit 8.15e-06 s" in r.output, r
+    assert "warning: dt = 3.26037e-05 s is above the stability limit 7.87e-07 s" in r.output, r
     assert r.returncode == 3, r
     assert launch.count_lines(r.output, "check failed") == 1, r
     line = next(ln for ln in r.output.splitlines() if "check failed" in ln)
