@@ -1,5 +1,5 @@
 """Smoothing kernels: normalisation by quadrature, derivative by finite differences,
-compact support, positivity, and the cubic spline's Eq. (4) constants."""
+compact support, positivity, the cubic spline's Eq. (4) constants and Wendland C2's."""
 import math
 
 import numpy as np
@@ -126,6 +126,23 @@ def test_cubic_spline_eq4_values(dim, alpha):
     np.testing.assert_allclose(w, [4 * alpha, alpha, alpha / 8, alpha * (4 - 1.5 + 3 / 8)], rtol=1e-13)
     d = dw_vec(k, [H, 0.5 * H], H, dim)
     np.testing.assert_allclose(d, [-3 * alpha / H, alpha / H * (-6 + 9 / 4)], rtol=1e-13)
+
+
+@pytest.mark.parametrize("dim,alpha,w_h,dw_h", [
+    (1, 5 / (8 * H), 5 / 16, -3 / 4),                    # (1 - q/2)^3 (1.5 q + 1)
+    (2, 7 / (4 * math.pi * H ** 2), 3 / 16, -5 / 8),     # (1 - q/2)^4 (2 q + 1)
+    (3, 21 / (16 * math.pi * H ** 3), 3 / 16, -5 / 8)])
+def test_wendland_c2_values(dim, alpha, w_h, dw_h):
+    """Wendland C2 on support 2h: W(0) = alpha_d (5/(8h), 7/(4 pi h^2), 21/(16 pi h^3)), W(h) and
+    dW/dr(h) from the polynomial at q = 1, zero from 2h on (constants typed here, not read from parsph)."""
+    k = get_kernel("wendland_c2", dim)
+    assert k.norm(H, dim) == pytest.approx(alpha, rel=1e-14)
+    w = w_vec(k, [0.0, H, 2 * H, 2.5 * H], H, dim)
+    np.testing.assert_allclose(w[:2], [alpha, w_h * alpha], rtol=1e-13)
+    assert w[2] == 0.0 and w[3] == 0.0
+    d = dw_vec(k, [0.0, H], H, dim)
+    assert d[0] == 0.0
+    np.testing.assert_allclose(d[1], dw_h * alpha / H, rtol=1e-13)
 
 
 @pytest.mark.parametrize("name,dim", KERNELS, ids=IDS)
