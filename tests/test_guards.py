@@ -1,0 +1,154 @@
+"""The run-time guards of Simulation.check (docs/stability.md, "The guards"): tests that fail if a guard
+names the wrong particle, misses the theta range, or lets a particle jump a slab unreported.
+
+- worst particle: two fluid particles beyond the walls by different depths, one on each of 2 ranks
+  (and the other way round): the message names the deeper one's position on every rank;
+- theta range (check 3): the particle furthest from theta_0 is named; a real run with a tight
+  checks.theta_change stops with check 3;
+- check 5 ("moved more than one slab in one step"): ``mpirun -n 4 parsph run`` with the plate moving
+  two slabs in one step exits 3 with one message line. With 3 ranks or fewer every slab is this
+  rank's or a neighbour's, so the check can only fire at 4 ranks or more.
+"""
+import os
+import re
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from parsph import config
+from parsph.particles import FLUID
+from parsph.solver import CHECKS, GuardError, Simulation
+
+from conftest import PAPER_TOML, ROOT, cli_env
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
+import launch  # noqa: E402
+
+needs_mpirun = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself")
+L = 0.01
+SMALL = ["domain.Ly=0.002", "output.times=[]", "output.progress_interval=0"]
+
+
+def mpirun(n, *argv, timeout=120):
+    """``mpirun -n N ARGV`` in its own session, killed after ``timeout``; the shared numba cache."""
+    env = {k: v for k, v in launch.env().items() if k != "NUMBA_CACHE_DIR"}
+    env.update(cli_env())
+    t0 = time.monotonic()
+    p = subprocess.Popen(launch.mpirun_cmd(n, *argv), cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        out, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        out, err = p.communicate()
+        raise AssertionError(f"mpirun did not finish within {timeout} s\n{out}\n{err}") from None
+    return launch.Result(p.returncode, out, err, time.monotonic() - t0)
+
+
+# ---- the worst particle, across ranks ---------------------------------------------------------------
+WORST = textwrap.dedent("""
+    import sys
+    import numpy as np
+    from mpi4py import MPI
+    from parsph import config
+    from parsph.particles import FLUID
+    from parsph.solver import GuardError, Simulation
+    comm = MPI.COMM_WORLD
+    cfg = config.load(sys.argv[1], sys.argv[3:])
+    sim = Simulation(cfg, comm)
+    sim.compute_rates()
+    ps = sim.ps
+    k = int(np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[0])     # one fluid particle of this rank
+    x0 = ps.pos[k, 0]
+    out = []
+    for deep_rank in (1, 0):
+        # this rank's particle: 3e-5 m beyond the moving plate if it is deep_rank's, else 1e-5 m below the floor
+        ps.pos[k, 0] = cfg.L + 3e-5 if comm.rank == deep_rank else -1e-5
+        try:
+            sim.check()
+            out.append("no guard fired")
+        except GuardError as e:
+            out.append(f"{e}")
+        ps.pos[k, 0] = x0
+    with open(f"{sys.argv[2]}/rank{comm.rank}.txt", "w") as f:
+        f.write(f"{int(ps.gid[k])} {float(ps.pos[k, 1])!r}\\n" + "\\n".join(out))
+""")
+
+
+@needs_mpirun
+def test_worst_wall_offender_is_named_across_ranks(tmp_path):
+    """Two fluid particles beyond the walls, 1e-5 m and 3e-5 m deep, on different ranks (each order):
+    every rank raises the same GuardError naming check 2 and the deeper particle's id and position."""
+    script = tmp_path / "worst.py"
+    script.write_text(WORST)
+    r = mpirun(2, launch.PYTHON, script, PAPER_TOML, tmp_path, *SMALL, "output.t_end=1e-5", timeout=90)
+    assert r.returncode == 0, r
+    ranks = [(tmp_path / f"rank{k}.txt").read_text().splitlines() for k in (0, 1)]
+    gid_y = [line[0].split() for line in ranks]
+    for case, deep in enumerate((1, 0)):
+        msgs = {lines[1 + case] for lines in ranks}
+        assert len(msgs) == 1, msgs                                   # the same message on every rank
+        msg = msgs.pop()
+        assert msg.startswith(f"check failed: {CHECKS[2]}"), msg
+        gid, y = gid_y[deep]
+        assert f"particle {gid} at x = {L + 3e-5:.6g} m, y = {float(y):.6g} m" in msg, (deep, msg)
+        assert "3e-05 m beyond the plate" in msg, msg
+
+
+# ---- theta out of range (check 3) ------------------------------------------------------------------
+def _sim(*extra):
+    cfg = config.load(str(PAPER_TOML), [*SMALL, "output.t_end=1e-4", *extra])
+    return Simulation(cfg, MPI.COMM_SELF)
+
+
+def test_theta_range_names_the_furthest_particle():
+    """Two fluid particles with theta 60 % and 90 % above theta_0 (limit 50 %): check 3, the 90 % one named."""
+    sim = _sim()
+    sim.compute_rates()
+    sim.check()                                    # the undisturbed lattice passes
+    ps, th0 = sim.ps, sim.cfg.theta0
+    a, b = np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[[3, 200]]
+    ps.theta[a], ps.theta[b] = 1.6 * th0, 1.9 * th0
+    with pytest.raises(GuardError) as e:
+        sim.check()
+    msg = str(e.value)
+    assert msg.startswith(f"check failed: {CHECKS[3]} at step 0") and f"particle {ps.gid[b]} " in msg, msg
+    assert f"x = {ps.pos[b, 0]:.6g} m, y = {ps.pos[b, 1]:.6g} m (theta = {1.9 * th0:.4g}, theta0 = 0.35)" in msg
+    ps.theta[a], ps.theta[b] = th0, 0.3 * th0       # 70 % below: out of range too
+    with pytest.raises(GuardError, match=re.escape(f"particle {ps.gid[b]} ")):
+        sim.check()
+
+
+def test_theta_range_stops_a_run():
+    """A real run whose accepted theta change (1e-12 of theta_0) is below what the impulsive start
+    produces: the run stops with check 3 within its 10 steps, not with another check."""
+    sim = _sim("checks.every=1", "checks.theta_change=1e-12", "output.t_end=1e-4")
+    with pytest.raises(GuardError) as e:
+        sim.run()
+    assert str(e.value).startswith(f"check failed: {CHECKS[3]} at step "), e.value
+    assert sim.step <= 10
+
+
+# ---- check 5: a particle moved more than one slab in one step (4 ranks) ---------------------------------
+@needs_mpirun
+def test_particle_jumping_a_slab_stops_the_run_on_4_ranks(tmp_path):
+    """mpirun -n 4, L_y = 2 mm (slabs 0.5 mm), dt = 1 ms with the override: the plate moves 1 mm,
+    two slabs, in the first step. Exit 3, one "check failed" line naming check 5, within the timeout."""
+    out = tmp_path / "out"
+    sets = []
+    for s in [*SMALL, "numerics.dt=1e-3", "numerics.allow_unstable_dt=true", "output.t_end=2e-2",
+              "checks.every=20"]:
+        sets += ["--set", s]
+    r = mpirun(4, launch.PYTHON, "-m", "parsph", "run", PAPER_TOML, *sets, "--out", out, "--quiet", timeout=120)
+    assert r.returncode == 3, r
+    lines = [ln for ln in r.output.splitlines() if "check failed" in ln]
+    assert len(lines) == 1, r
+    assert lines[0].startswith(f"parsph: error: check failed: {CHECKS[5]} at step 1, t = 0.001 s"), lines[0]
+    assert re.search(r"particle \d+ at x = [0-9.e+-]+ m, y = [0-9.e+-]+ m", lines[0]), lines[0]
