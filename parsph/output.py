@@ -6,8 +6,10 @@ Directory layout (README.md, "Output files", has the table with units)::
     DIR/<name>.xdmf        ParaView sidecar: the snapshots as a time series of points
 
 Each file is written as ``<name>_NNNN.h5.part`` and renamed when complete and
-closed, so a run killed at any moment (even SIGKILL) leaves every earlier
-output whole and readable, and every output file is a restart point. In a file:
+closed (rank 0 fsyncs the file before the rename and the directory after it),
+so a run killed at any moment (even SIGKILL, or a crash of the machine) leaves
+every earlier output whole and readable, and every output file with particles
+is a restart point. In a file:
 
     /                      attrs: parsph_version, run_file (TOML), scene, dim, n_particles, ranks,
                                   time, step, index, dt, L, Ly, V_w, nu, integrator state
@@ -17,11 +19,13 @@ output whole and readable, and every output file is a restart point. In a file:
     /profile/vy_exact, theta_exact (Nx,)  the scene's reference (NaN where it has none)
     /profile attrs         err_max, err_rms: |f - f_exact| / scale of the scene's error field
                            (root attrs error_field, error_scale), max and RMS over bins
-    /particles/{id, kind, position, velocity, theta}   (N,), (N,), (N, dim), (N, dim), (N,)
+    /particles/{id, kind, mass, position, velocity, theta}   (N,), (N,), (N,), (N, dim), (N, dim), (N,)
+                           mass in kg/m in 2-D (per metre of z), kg in 3-D (MASS_UNITS)
 
 Each rank writes its particles as one hyperslab at the offset given by an
 exclusive scan of the particle counts. When h5py lacks MPI, rank 0 gathers
-and writes instead (one warning line).
+and writes instead (one warning line saying whether h5py lacks MPI or
+``PARSPH_SERIAL_HDF5`` forced it).
 """
 import glob
 import os
@@ -36,10 +40,34 @@ from . import __version__
 SERIAL_ENV = "PARSPH_SERIAL_HDF5"  # set to 1 to force the gather-to-rank-0 path
 PARTICLE_FIELDS = ("id", "kind", "mass", "position", "velocity", "theta")
 PROFILE_FIELDS = ("x", "vy", "theta", "count", "vy_exact", "theta_exact")
+# a particle's mass per unit of the dimensions the lattice leaves out (2-D: per metre of z)
+MASS_UNITS = {1: "kg/m^2", 2: "kg/m", 3: "kg"}
 
 
 def parallel_hdf5_available():
     return bool(h5py.get_config().mpi) and os.environ.get(SERIAL_ENV, "") in ("", "0")
+
+
+def _durable_rename(part, final):
+    """Rename a closed ``part`` file to ``final`` so that a crash of the machine cannot leave
+    ``final`` naming a file whose data never reached the disk: fsync the data, rename, then
+    fsync the directory that holds the new name."""
+    fd = os.open(part, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    os.replace(part, final)
+    try:
+        fd = os.open(os.path.dirname(os.path.abspath(final)), os.O_RDONLY)
+    except OSError:  # a file system whose directories cannot be opened: the rename stands
+        return
+    try:
+        os.fsync(fd)
+    except OSError:  # some file systems refuse fsync on a directory
+        pass
+    finally:
+        os.close(fd)
 
 
 def output_name(stem, k):
@@ -59,8 +87,9 @@ class Output:
         self.root = comm.rank == 0
         self.index = first_index
         if not self.parallel and comm.size > 1 and self.root:
-            print("parsph: warning: h5py has no MPI support; rank 0 gathers and writes the output",
-                  file=sys.stderr, flush=True)
+            why = (f"{SERIAL_ENV}={os.environ[SERIAL_ENV]} forces serial HDF5" if h5py.get_config().mpi
+                   else "h5py has no MPI support")
+            print(f"parsph: warning: {why}; rank 0 gathers and writes the output", file=sys.stderr, flush=True)
         # (file name, time, has particles) of complete outputs, for the XDMF sidecar;
         # a restart continues the series of the outputs before it
         self.written = []
@@ -113,7 +142,7 @@ class Output:
             f.close()
         comm.Barrier()
         if self.root:
-            os.replace(part, final)
+            _durable_rename(part, final)
         self.written.append((name, sim.t, bool(snapshot)))
         if self.root:
             self._write_xdmf()
@@ -127,7 +156,7 @@ class Output:
         fields = {
             "id": (ps.gid[:n], "i8", "1"),
             "kind": (ps.kind[:n].astype(np.int8), "i1", "1"),
-            "mass": (ps.mass[:n], "f8", "kg/m"),
+            "mass": (ps.mass[:n], "f8", MASS_UNITS[self.cfg.dim]),
             "position": (ps.pos[:n], "f8", "m"),
             "velocity": (ps.vel[:n], "f8", "m/s"),
             "theta": (ps.theta[:n], "f8", "1"),
