@@ -15,20 +15,34 @@ Properties:
   exception (OverflowError, ZeroDivisionError, TypeError, ...) is a bug.
   A wrong type, a non-finite or out-of-range value, a missing required key
   or an unknown key must name exactly that key.
-* On the command line (``parsph run``, 1 rank and ``mpirun -n 2``): exit
-  code 2, exactly one stderr line ``parsph: error: ...`` naming the key,
-  no traceback, within a bounded time; ``numerics.Nx = 10**7`` is refused
-  with a memory estimate before anything is allocated (under an 8 GB
-  address-space limit); a missing output directory is created; one that
-  cannot be written is exit 2. Subprocesses run under an 8 GB RLIMIT_AS.
+* The memory check (``cli._fits_in_memory``) with a stubbed memory figure:
+  random large Nx, Ly, Lz and h / dx in 2-D and 3-D on 1 to 4 nodes is
+  refused (ConfigError on ``numerics.Nx`` with the particle count and the
+  estimate in GB) exactly when the estimate exceeds 80% of the memory.
+* On the command line (``parsph run``, 1 rank and ``mpirun -n 2``), fixed
+  cases and a hypothesis property drawing from the strategies above (wrong
+  types, out-of-range numbers, missing and unknown keys, Nx too large for
+  this machine's memory, output directories missing, read-only or under a
+  read-only parent, run as root through ``setpriv`` without
+  CAP_DAC_OVERRIDE): exit code 2, exactly one stderr line
+  ``parsph: error: ...`` naming the key (or the directory), no traceback,
+  no MPI_ABORT, within a bounded time, and a refused run file leaves the
+  output directory untouched. A too large Nx is refused with a memory
+  estimate before anything is allocated; a missing output directory is
+  created; an existing output is replaced only with ``--force``.
+  Subprocesses run under an 8 GB RLIMIT_AS.
 
 Hypothesis runs derandomized (the same examples every time, no example
-database written). Cases: the 9 hypothesis properties allow 2 950 examples
-(``max_examples`` below); a property that finds a bug stops early and
-shrinks. Run of 2026-11-22 (with the overflow bugs present): 2 144
-hypothesis examples, plus 12 extreme-number regressions, 4 fixed
-documents, 17 command-line cases on 1 rank and 4 under ``mpirun -n 2``:
-2 181 in all. ``test_report_case_counts`` prints the counts with ``-s``.
+database written), with a deadline per example (10 s in process, 60 s /
+120 s on the command line). Cases per run, by design (``max_examples``
+below; a property that finds a bug stops early and shrinks, so a failing
+run tries fewer): 3 150 examples of the 10 in-process properties (2 950
+validation, 200 memory check), 20 of the command-line property (12 on 1
+rank, 8 under ``mpirun -n 2``), 12 extreme-number regressions, 5 fixed
+documents, 19 fixed command lines on 1 rank and 5 under ``mpirun -n 2``:
+3 211 in all, as counted by the run of 2026-11-22 08:06 UTC (about 60 s
+of its 160 s went to the command-line property). ``test_report_case_counts``
+prints the counts with ``-s``.
 """
 import copy
 import datetime
