@@ -352,9 +352,19 @@ def build(raw, text):
     terms = v["terms"]
     kern = get_kernel(num["kernel"], dim)
     support = kern.support * h
+    if support <= dx * (1 + 1e-9):
+        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is too small: the kernel support {kern.support:g}h = "
+                          f"{support:.3g} m does not reach the next particle (dx = {dx:g} m), so no particle "
+                          f"has a neighbour; need h / dx > {1 / kern.support:g} (the usual: 1.2 to 2)")
+    lengths = [L, Ly] + ([Lz] if dim == 3 else [])
+    if support > max(lengths):
+        # wider than the channel and than the box: h is the cause, not one length
+        raise ConfigError(hkey, f"h = {h:g} m (h / dx = {h / dx:.3g}) is too large: the kernel support "
+                          f"2h = {support:g} m is wider than the channel (L = {L:g} m) and the box "
+                          f"(L_y = {Ly:g} m{f', L_z = {Lz:g} m' if dim == 3 else ''})")
     need_layers = math.ceil(support / dx - 1e-9)
     layers = walls["layers"] or need_layers
-    if get_scene(v["scene"]["name"]).walls and layers * dx < support * (1 - 1e-9):
+    if scene.walls and layers * dx < support * (1 - 1e-9):
         raise ConfigError("walls.layers", f"{layers} layers of dx = {dx:g} m do not cover the kernel "
                           f"support {support:g} m; need at least {need_layers}")
     if Ly < support:

@@ -62,6 +62,11 @@ CASES = {
     "dt_string": (None, ["--set", "numerics.dt=fast"], ["numerics.dt", "number"]),
     "pressure_form_unknown": (None, ["--set", "numerics.pressure_form=exact"],
                               ["numerics.pressure_form", "consistent"]),
+    # 2h = 0.02 m is wider than both L and L_y: h is the cause (was blamed on domain.Ly)
+    "h_too_large": (None, ["--set", "numerics.h=0.01"], ["error: numerics.h:", "too large", "2h = 0.02 m"]),
+    # the support does not reach the next particle (was "0 layers ... need at least 0")
+    "h_over_dx_too_small": (edit(r"^h = 2.5e-4 .*$", "h_over_dx = 0.3"), [],
+                            ["error: numerics.h_over_dx:", "too small", "h / dx > 0.5"]),
 }
 
 
@@ -185,3 +190,28 @@ def test_numerics_options(paper_cfg):
     assert cfg.integrator == "midpoint" and cfg.get("numerics.viscosity_form") == "symmetric"
     assert cfg.dt_auto
     assert cfg.dt == pytest.approx(0.5 * min(cfg.limits.values()), rel=1e-12)
+
+
+@pytest.mark.parametrize("overrides, key, words", [
+    (["numerics.h=0.01"], "numerics.h", ["too large", "wider than the channel (L = 0.01 m)"]),
+    (["numerics.h=None", "numerics.h_over_dx=60"], "numerics.h_over_dx", ["h / dx = 60", "too large"]),
+    (["numerics.h=1e-6"], "numerics.h", ["h / dx = 0.005 is too small", "need h / dx > 0.5"]),
+    (["numerics.h=None", "numerics.h_over_dx=1e-9"], "numerics.h_over_dx", ["too small"]),
+    (["numerics.h=None", "numerics.h_over_dx=0.5"], "numerics.h_over_dx", ["too small"]),   # 2h = dx exactly
+    (["numerics.h=None", "numerics.h_over_dx=0.3", "walls.layers=1"], "numerics.h_over_dx", ["too small"]),
+    (["domain.Ly=0.0004"], "domain.Ly", ["shorter than the kernel support 2h = 0.0005 m"]),  # Ly is the cause
+], ids=["h_large", "ratio_large", "h_small", "ratio_tiny", "ratio_half", "ratio_small_layers", "Ly_short"])
+def test_smoothing_length_errors_name_the_cause(overrides, key, words):
+    """An h too large for the box or too small to reach a neighbour is blamed on the h key given."""
+    from parsph import config
+    from conftest import paper_raw
+    raw = paper_raw()
+    if "numerics.h=None" in overrides:
+        raw["numerics"].pop("h")
+    config.apply_overrides(raw, [o for o in overrides if o != "numerics.h=None"])
+    with pytest.raises(config.ConfigError) as e:
+        config.build(raw, config.dumps(raw))
+    assert e.value.key == key, e.value
+    for w in words:
+        assert w in str(e.value), (w, str(e.value))
+    assert "at least 0" not in str(e.value)
