@@ -6,6 +6,7 @@
     .venv/bin/python scripts/stability_map.py --integrator midpoint     # the dense corner, midpoint
     .venv/bin/python scripts/stability_map.py --plot-only          # redraw PNGs, summary, merged CSV
     .venv/bin/python scripts/stability_map.py --quick --out DIR    # a 12-run smoke test
+    .venv/bin/python scripts/stability_map.py --scene settling [--refine]  # the granular column (gravity on)
 
 Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
 ``parsph run`` drives) on ``MPI.COMM_SELF`` in this one process: the flow is
@@ -47,6 +48,23 @@ to within 10 %. Outputs: stability_map.csv (paper integrator),
 stability_map_midpoint.csv, stability_long.csv, stability_all.csv (all of
 them, with integrator and verdict: docs/stability_map.csv), summary*.txt and
 the PNGs. Rows already in a CSV are not run again (delete it to start afresh).
+
+``--scene settling`` maps the granular column of run/settling.toml instead
+(gravity -30 m/s^2 along x, floor and lid, k = 1, the consistent pressure
+form, the paper integrator): theta_0 in SETTLING["theta0"] x the same
+multiples at N_x = SETTLING["nx"], L_y = 8 h. There the predicted limit is
+config.build's (the one a fixed dt is refused against): min(CFL with
+sqrt(g h), viscous, force with |g|, damping) at theta_0; each run lasts the
+same simulated time, SETTLING["steps"] steps of the predicted limit (the
+column's first transient, not its settling: that takes 0.4 s), and at least
+SETTLING["min_steps"] steps. Criteria: non-finite; wall = a fluid particle
+below the floor or above the lid; theta = max |theta - theta_eq(x)| /
+theta_eq(x) > THETA_FRAC against the settling equilibrium
+(parsph.analytic.settling_equilibrium, the form the run's pressure term
+converges to: scenes/settling.wall_theta); energy = fluid kinetic energy above
+the scene's own bound (settling.max_kinetic_energy: M g L). The probe stops a
+run at its first failure. Output: stability_settling.csv and
+stability_settling.png (docs/).
 """
 import argparse
 import csv
@@ -61,10 +79,15 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+# one process, one core: numba's threads would only contend (a run of 260 particles
+# took 31 ms a step with 2 threads on the loaded 2-core machine, 2.4 ms with 1)
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 from mpi4py import MPI  # noqa: E402
 
 from parsph import config  # noqa: E402
+from parsph import analytic  # noqa: E402
+from parsph.scenes import settling as settling_scene  # noqa: E402
 from parsph.closures import modulus  # noqa: E402
 from parsph.particles import FLUID  # noqa: E402
 from parsph.solver import GuardError, Simulation  # noqa: E402
@@ -170,7 +193,7 @@ class Probe(Simulation):
 
 
 GUARD_NAMES = {"non-finite": "nonfinite", "crossed a wall": "wall", "volume fraction": "theta",
-               "kinetic energy": "energy"}
+               "kinetic energy": "energy", "moved more than one slab": "slab"}
 
 
 def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, source="grid", integrator="paper"):
@@ -237,11 +260,14 @@ def load_rows(path):
 
 
 class Results:
-    """The CSV of one integrator's runs; a run already in it is not repeated."""
+    """The CSV of one integrator's (or scene's) runs; a run already in it is not repeated."""
 
-    def __init__(self, path, integrator="paper"):
+    def __init__(self, path, integrator="paper", runner=None, fields=FIELDS):
         self.path = path
         self.integrator = integrator
+        self.runner = runner or (lambda t, r, nx, m, source: run_case(t, r, nx, m, source=source,
+                                                                      integrator=self.integrator))
+        self.fields = fields
         self.rows = load_rows(path)
         self.done = {key_of(r): r for r in self.rows}
 
@@ -249,9 +275,9 @@ class Results:
         key = (nx, round(theta0, 6), round(Re, 6), round(multiple, 9))
         if key in self.done:
             return self.done[key]
-        row = run_case(theta0, Re, nx, multiple, source=source, integrator=self.integrator)
+        row = self.runner(theta0, Re, nx, multiple, source)
         new = not os.path.exists(self.path)
-        header = FIELDS
+        header = self.fields
         if not new:
             with open(self.path, newline="") as f:
                 header = next(csv.reader(f))
@@ -519,8 +545,12 @@ def main(argv=None):
     ap.add_argument("--plot-only", action="store_true", help="redraw from the CSV")
     ap.add_argument("--integrator", default="paper", choices=("paper", "midpoint"),
                     help="time integrator (midpoint: its own CSV, the dense corner only)")
+    ap.add_argument("--scene", default="couette", choices=("couette", "settling"),
+                    help="couette (the map) or settling (the granular column, gravity on)")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
+    if a.scene == "settling":
+        return main_settling(a)
     if a.integrator == "midpoint":
         return main_midpoint(a)
     res = Results(os.path.join(a.out, "stability_map.csv"))
@@ -581,6 +611,255 @@ def main_midpoint(a):
     text = summary(res.rows, 50, ", midpoint integrator")
     print(text)
     with open(os.path.join(a.out, "summary_midpoint.txt"), "w") as f:
+        f.write(text + "\n")
+    return 0
+
+
+# ---- the granular column (--scene settling) -------------------------------------------------------
+SETTLING_TOML = ROOT / "run" / "settling.toml"
+_EQ = {}
+
+
+def settling_equilibrium(x, *args, **kw):
+    """analytic.settling_equilibrium, memoised on its exact arguments (x included): each column's
+    runs share the wall positions, and one evaluation takes seconds (RK4 in Python, bisected)."""
+    x = np.asarray(x, dtype=float)
+    key = (x.tobytes(), x.shape, args, tuple(sorted(kw.items())))
+    if key not in _EQ:
+        _EQ[key] = analytic.settling_equilibrium(x, *args, **kw)
+    return _EQ[key].copy()
+
+
+settling_scene.settling_equilibrium = settling_equilibrium   # the scene's walls and reference use it too
+SETTLING = {"theta0": (0.55, 0.6, 0.64, 0.7), "nx": 20, "steps": 2000, "min_steps": 1000}
+SETTLING_FIELDS = FIELDS + ["integrator", "dt_force", "dt_damping", "theta_eq_max", "dt_limit_eq",
+                            "limit_term_eq", "ke_bound"]
+
+
+def settling_raw():
+    with open(SETTLING_TOML, "rb") as f:
+        return tomllib.load(f)
+
+
+def settling_limits(theta0, nx, theta=None):
+    """The predicted limits of the column at theta (default theta_0): config.dt_limits as config.build
+    calls it (velocity scale sqrt(g h), |g|, the run file's integrator)."""
+    raw = settling_raw()
+    L, mat, num = raw["domain"]["L"], raw["material"], raw["numerics"]
+    g = math.sqrt(sum(x * x for x in raw["body_force"]["g"]))
+    h = num["h_over_dx"] * L / nx
+    th = theta0 if theta is None else theta
+    return config.dt_limits(h, th, mat["rho_s"], mat["k"], mat.get("G_a", 8.76), mat.get("G_b", -1.183),
+                            math.sqrt(g * h), g, num.get("integrator", "paper"))
+
+
+def settling_config(theta0, nx, multiple, steps=None):
+    """The column at dt = multiple x the predicted limit, for steps x that limit in time, and for
+    at least SETTLING["min_steps"] steps (a time-step instability grows per step)."""
+    raw = settling_raw()
+    lim = min(settling_limits(theta0, nx).values())
+    steps = max(steps or SETTLING["steps"], SETTLING["min_steps"] * multiple)
+    h = raw["numerics"]["h_over_dx"] * raw["domain"]["L"] / nx
+    over = [f"material.theta0={theta0!r}", f"numerics.Nx={nx}", f"domain.Ly={LY_IN_H * h!r}",
+            f"numerics.dt={multiple * lim!r}", "numerics.allow_unstable_dt=true",
+            f"output.t_end={steps * lim!r}", "output.times=[]", "output.progress_interval=0",
+            "checks.every=1", "checks.theta_change=1.0", "checks.energy=true"]
+    config.apply_overrides(raw, over)
+    return config.build(raw, config.dumps(raw))
+
+
+class SettlingProbe(Probe):
+    """The criteria of the column: theta against the settling equilibrium, the scene's energy bound.
+
+    Stops the run (GuardError) at the first criterion that fails."""
+
+    def __init__(self, cfg, comm, theta_frac):
+        super().__init__(cfg, comm, theta_frac)
+        form = "paper" if cfg.get("numerics.pressure_form") == "paper" else "closure"
+        self.xs = np.linspace(0.0, cfg.L, 2001)
+        self.theta_eq = settling_equilibrium(self.xs, cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a,
+                                             cfg.G_b, form=form)
+        self.ke_bound_per_mass = cfg.scene.max_kinetic_energy(cfg, 1.0, 0.0)
+
+    def measure(self):
+        ps, cfg = self.ps, self.cfg
+        n = ps.n_own
+        fl = ps.kind[:n] == FLUID
+        pos, vel, acc, theta, m = ps.pos[:n][fl], ps.vel[:n][fl], ps.acc[:n][fl], ps.theta[:n][fl], ps.mass[:n][fl]
+        with np.errstate(all="ignore"):
+            nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all() and np.isfinite(acc).all())
+            wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > cfg.L)).any())
+            ref = np.interp(np.nan_to_num(pos[:, 0]), self.xs, self.theta_eq)
+            dev = float(np.nanmax(np.abs(theta - ref) / ref)) if theta.size else 0.0
+            if not np.isfinite(theta).all():
+                dev = math.inf
+            ke = 0.5 * float((m * (vel ** 2).sum(axis=1)).sum())
+            ke_ratio = ke / (self.ke_bound_per_mass * float(m.sum())) if math.isfinite(ke) else math.inf
+            speed = float(np.sqrt((vel ** 2).sum(axis=1)).max()) / cfg.velocity_scale
+            speed = speed if math.isfinite(speed) else math.inf
+        now = {"nonfinite": nonfinite, "wall": wall, "theta": not dev <= self.theta_frac,
+               "energy": not ke_ratio <= 1.0}
+        return now, dev, ke_ratio, speed
+
+    def check(self):
+        now, dev, ke_ratio, speed = self.measure()
+        fired = [c for c in CRITERIA if now[c]]
+        if fired:
+            for c in fired:
+                if self.first[c] < 0:
+                    self.first[c] = self.step
+            raise GuardError(f"probe: {', '.join(fired)} at step {self.step}, t = {self.t:.6g} s "
+                             f"(theta dev {dev:.3g}, KE/bound {ke_ratio:.3g})")
+        super().check()
+
+
+def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
+    """One column run; its CSV row (Re is the column's, sqrt(g h) L / nu: one k)."""
+    cfg = settling_config(theta0, nx, multiple, steps)
+    lim = settling_limits(theta0, nx)
+    term = min(lim, key=lim.get)
+    sim = SettlingProbe(cfg, MPI.COMM_SELF, THETA_FRAC)
+    th_eq = float(sim.theta_eq.max())
+    lim_eq = settling_limits(theta0, nx, th_eq)
+    guard = crash = message = ""
+    t0 = time.perf_counter()
+    try:
+        with np.errstate(all="ignore"):
+            sim.run()
+    except GuardError as e:
+        message = str(e)
+        guard = "probe" if message.startswith("probe") else next(
+            (v for kk, v in GUARD_NAMES.items() if kk in message), "other")
+    except Exception as e:  # noqa: BLE001
+        crash = type(e).__name__
+        message = f"{type(e).__name__}: {e}"
+    wall_s = time.perf_counter() - t0
+    fired = [c for c in CRITERIA if sim.first[c] >= 0]
+    stable = not fired and not crash and not guard
+    err_max = err_rms = math.nan
+    if stable:
+        err_max, err_rms = sim.profile()["err"]
+    first = min(fired, key=lambda c: (sim.first[c], CRITERIA.index(c))) if fired else (crash or guard)
+    c2 = modulus(theta0, cfg.G_a, cfg.G_b) / cfg.rho_s
+    return {
+        "nx": nx, "theta0": theta0, "Re": Re, "k": cfg.k, "multiple": multiple, "dt": cfg.dt,
+        "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
+        "dt_acoustic_damping": 2.0 * cfg.nu / c2, "steps_planned": cfg.nsteps, "steps_done": sim.step,
+        "t_done": sim.t, "stable": int(stable), "first_failure": first,
+        "fail_step": -1 if stable else sim.step,
+        **{f"{c}_step": sim.first[c] for c in CRITERIA},
+        "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
+        "max_speed_ratio": sim.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
+        "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3), "source": source,
+        "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
+        "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
+        "ke_bound": sim.ke_bound_per_mass,
+    }
+
+
+def settling_re(theta0, nx):
+    cfg = settling_config(theta0, nx, 1.0)
+    return round(cfg.reynolds, 6)
+
+
+def plot_settling(rows, outdir):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
+
+    fig, ax = plt.subplots(figsize=(6.4, 5.4))
+    nx = SETTLING["nx"]
+    ts = sorted({float(r["theta0"]) for r in rows})
+    meas = []
+    for t in ts:
+        col = sorted([r for r in rows if abs(float(r["theta0"]) - t) < 1e-9], key=lambda r: float(r["multiple"]))
+        phys = physical_time(col)
+        for r in col:
+            m, v = float(r["multiple"]), verdict(r, phys)
+            if v == "stable":
+                ax.plot(t, m, "o", color="tab:green", ms=6)
+            elif v == "physical":
+                ax.plot(t, m, "D", color="tab:gray", ms=6)
+            elif r["crash"]:
+                ax.plot(t, m, "P", color="k", ms=7)
+            else:
+                mk, c = MARK.get(r["first_failure"], ("D", "k"))
+                ax.plot(t, m, mk, color=c, ms=7)
+        lo, hi = dt_bounds(col)
+        if lo and hi:
+            meas.append((t, math.sqrt(lo * hi)))
+    if meas:
+        ax.plot(*zip(*meas), "-", color="k", lw=1.2)
+    eq, nodamp = [], []   # the limit at the settled floor's theta (where auto ends up); without damping
+    for t in ts:
+        r = next(r for r in rows if abs(float(r["theta0"]) - t) < 1e-9)
+        eq.append((t, float(r["dt_limit_eq"]) / float(r["dt_limit"])))
+        nodamp.append((t, min(float(r[k]) for k in ("dt_cfl", "dt_viscous", "dt_force")) / float(r["dt_limit"])))
+    ax.plot(*zip(*eq), "-.", color="tab:blue", lw=1.2)
+    ax.plot(*zip(*nodamp), ":", color="tab:purple", lw=1.2)
+    ax.axhline(1.0, color="tab:gray", lw=1.5, ls="--")
+    ax.set_yscale("log", base=2)
+    ax.set_ylim(1 / 8, 80)
+    ax.set_xlabel(r"$\theta_0$")
+    ax.set_ylabel("dt / predicted limit at $\\theta_0$")
+    ax.grid(alpha=0.3)
+    handles = [Line2D([], [], marker="o", ls="", color="tab:green", label="stable"),
+               Line2D([], [], marker="^", ls="", color="tab:red", label="unstable: energy"),
+               Line2D([], [], marker="s", ls="", color="tab:orange", label=r"unstable: $\theta$ vs equilibrium"),
+               Line2D([], [], marker="X", ls="", color="tab:red", label="unstable: non-finite"),
+               Line2D([], [], marker="v", ls="", color="tab:purple", label="unstable: floor/lid"),
+               Line2D([], [], ls="--", color="tab:gray", label=r"predicted limit at $\theta_0$ (config)"),
+               Line2D([], [], ls="-.", color="tab:blue", label=r"limit at the floor's $\theta$ (auto, settled)"),
+               Line2D([], [], ls=":", color="tab:purple", label="min(CFL, viscous, force): no damping"),
+               Line2D([], [], ls="-", color="k", label="measured limit")]
+    fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=3, frameon=False)
+    ax.set_title(f"Settling column, N_x = {nx}, g = 30 m/s$^2$, k = 1, paper integrator:\n"
+                 f"fixed dt = multiple x predicted limit, {SETTLING['steps']} steps of that limit "
+                 f"(at least {SETTLING['min_steps']} steps)", fontsize=9)
+    fig.tight_layout(rect=(0, 0.14, 1, 1))
+    png = os.path.join(outdir, "stability_settling.png")
+    fig.savefig(png, dpi=80)
+    plt.close(fig)
+    return png
+
+
+def summary_settling(rows):
+    lines = [f"settling column, N_x = {SETTLING['nx']}: measured dt / predicted limit (at theta_0), last without "
+             "a time-step failure .. first with one",
+             f"{'theta0':>6} {'term':>8} {'limit [s]':>10} {'ok<=':>6} {'fail>=':>6} {'eq/lim':>7} "
+             f"{'force/lim':>9}  first failure"]
+    for t in sorted({float(r["theta0"]) for r in rows}):
+        col = sorted([r for r in rows if abs(float(r["theta0"]) - t) < 1e-9], key=lambda r: float(r["multiple"]))
+        lo, hi = dt_bounds(col)
+        r0 = col[0]
+        lim = float(r0["dt_limit"])
+        first = next((r for r in col if float(r["multiple"]) == hi), None) if hi else None
+        how = f"{first['first_failure']} at step {first['fail_step']} (t = {float(first['t_done']):.3g} s)" \
+            if first else ""
+        f = lambda v: "-" if v is None else f"{v:.3g}"  # noqa: E731
+        lines.append(f"{t:>6g} {r0['limit_term']:>8} {lim:>10.3g} {f(lo):>6} {f(hi):>6} "
+                     f"{float(r0['dt_limit_eq']) / lim:>7.3g} {float(r0['dt_force']) / lim:>9.3g}  {how}")
+    return "\n".join(lines)
+
+
+def main_settling(a):
+    nx = SETTLING["nx"]
+    res = Results(os.path.join(a.out, "stability_settling.csv"),
+                  runner=lambda t, r, nx_, m, source: run_settling_case(t, r, nx_, m, source),
+                  fields=SETTLING_FIELDS)
+    if not a.plot_only:
+        for t in SETTLING["theta0"]:
+            Re = settling_re(t, nx)
+            for m in MULTS:
+                res.get(t, Re, nx, m)
+            if a.refine:   # beyond the grid (up to 64x or down to 1/64), bisected to within 10 %
+                lo, hi = refine(res, t, Re, nx=nx)
+                print(f"refined settling theta0={t:g}: no time-step failure <= {lo}, one at {hi}", flush=True)
+    print(f"wrote {plot_settling(res.rows, a.out)}")
+    text = summary_settling(res.rows)
+    print(text)
+    with open(os.path.join(a.out, "summary_settling.txt"), "w") as f:
         f.write(text + "\n")
     return 0
 

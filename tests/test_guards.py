@@ -7,7 +7,7 @@ names the wrong particle, misses the theta range, or lets a particle jump a slab
   checks.theta_change stops with check 3;
 - check 5 ("moved more than one slab in one step"): ``mpirun -n 4 parsph run`` with the plate moving
   two slabs in one step exits 3 with one message line. With 3 ranks or fewer every slab is this
-  rank's or a neighbour's, so the check can only fire at 4 ranks or more.
+  rank's or a neighbour's, so there the check fires only for a jump of more than the whole L_y.
 """
 import os
 import re
