@@ -10,9 +10,9 @@ and must agree with the table "Convergence orders" of docs/accuracy_summary.md:
 
 * the paper's numerics (cubic spline, h = 1.25 dx, Morris cap beta_max = 1.5):
   N_x = 20 ... 100 (docs/accuracy_summary.md: 0.98; local orders 0.92 ... 1.05);
-* the accurate preset's numerics (Wendland C2, h = 2 dx; the preset's cap 6 is
-  inactive on the lattice, so the sweep's family without cap is the same
-  computation): N_x = 20 ... 50 (1.99; local 2.07, 1.94), before the error levels
+* Wendland C2 at h = 2 dx with cap 6 (the accurate preset's numerics until h = 2.5 dx
+  replaced them; the cap 6 is inactive on the lattice, so the sweep's family
+  without cap is the same computation): N_x = 20 ... 50 (1.99; local 2.07, 1.94), before the error levels
   off at the kernel's viscosity bias (about 2e-4 from N_x = 70 on).
 
 The margins cover the spread of the sweep's local orders and the difference
@@ -38,11 +38,11 @@ NO_CAP = 1e6  # the sweep's beta_max "none"
 # name: (kernel, h/dx, beta_max of the test run, beta_max of the sweep family, N_x fitted, margin)
 CASES = {
     "paper numerics (cubic, h/dx 1.25, cap 1.5)": ("cubic_spline", 1.25, 1.5, 1.5, (20, 100), 0.25),
-    "accurate preset (Wendland C2, h/dx 2, cap 6)": ("wendland_c2", 2.0, 6.0, NO_CAP, (20, 50), 0.35),
+    "Wendland C2, h/dx 2, cap 6 (second order)": ("wendland_c2", 2.0, 6.0, NO_CAP, (20, 50), 0.35),
 }
 # the orders docs/accuracy.md and docs/accuracy_summary.md state for those families and ranges
 STATED = {"paper numerics (cubic, h/dx 1.25, cap 1.5)": 0.98,
-          "accurate preset (Wendland C2, h/dx 2, cap 6)": 1.99}
+          "Wendland C2, h/dx 2, cap 6 (second order)": 1.99}
 
 
 def sweep_order(kernel, h_over_dx, beta_max, nx_range):
