@@ -7,6 +7,7 @@
     .venv/bin/python scripts/stability_map.py --plot-only          # redraw PNGs, summary, merged CSV
     .venv/bin/python scripts/stability_map.py --quick --out DIR    # a 12-run smoke test
     .venv/bin/python scripts/stability_map.py --scene settling [--refine]  # the granular column (gravity on)
+    .venv/bin/python scripts/stability_map.py --damping --nx 200,400   # margin of the damping constant
 
 Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
 ``parsph run`` drives) on ``MPI.COMM_SELF`` in this one process: the flow is
@@ -547,8 +548,13 @@ def main(argv=None):
                     help="time integrator (midpoint: its own CSV, the dense corner only)")
     ap.add_argument("--scene", default="couette", choices=("couette", "settling"),
                     help="couette (the map) or settling (the granular column, gravity on)")
+    ap.add_argument("--damping", action="store_true",
+                    help="theta_0 = 0.7, Re = 57 at the --nx given: fixed dt = DAMPING_FRACTIONS x nu/c^2, "
+                         "and dt = \"auto\" (the margin of config.DAMPING)")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
+    if a.damping:
+        return main_damping(a)
     if a.scene == "settling":
         return main_settling(a)
     if a.integrator == "midpoint":
@@ -861,6 +867,48 @@ def main_settling(a):
     print(text)
     with open(os.path.join(a.out, "summary_settling.txt"), "w") as f:
         f.write(text + "\n")
+    return 0
+
+
+# ---- the margin of the damping constant (--damping) ---------------------------------------------------
+DAMPING_FRACTIONS = (0.1, 0.13, 0.16, 0.18, 0.2, 0.26)
+
+
+def run_auto(theta0, Re, nx, steps=STEPS):
+    """dt = "auto" (the run's limits, damping included) for about ``steps`` steps of its first dt."""
+    k, h, lim, term, _ = physics(theta0, Re, nx)
+    rho_s = base_raw()["material"]["rho_s"]
+    first = min(config.dt_limits(h, theta0, rho_s, k, 8.76, -1.183, 1.0, integrator="paper").values())
+    cfg = case_config(theta0, Re, nx, first / lim[term], steps, extra=['numerics.dt="auto"'])
+    sim = Probe(cfg, MPI.COMM_SELF, THETA_FRAC)
+    msg = ""
+    try:
+        with np.errstate(all="ignore"):
+            sim.run()
+    except Exception as e:  # noqa: BLE001 - a guard or anything else: reported
+        msg = f"{type(e).__name__}: {e}"
+    fired = [c for c in CRITERIA if sim.first[c] >= 0]
+    return sim, first, fired, msg
+
+
+def main_damping(a, theta0=0.7, Re=57.0):
+    """Fixed dt at fractions of nu/c^2 (of theta_0) and dt = "auto", theta_0 = 0.7, Re = 57, per N_x."""
+    res = Results(os.path.join(a.out, "stability_damping.csv"))
+    lines = [f"theta0 = {theta0:g}, Re = {Re:g}: fixed dt = f nu/c^2, {STEPS} steps; and dt = \"auto\""]
+    for nx in [int(x) for x in a.nx.split(",") if x]:
+        k, h, lim, term, dt_ac = physics(theta0, Re, nx)
+        nu_c2 = 0.5 * dt_ac
+        got = []
+        for f in DAMPING_FRACTIONS:
+            row = res.get(theta0, Re, nx, f * nu_c2 / lim[term], source="damping")
+            got.append(f"{f:g}: {'stable' if row['stable'] == '1' else row['first_failure'] + ' @' + row['fail_step']}")
+        sim, first, fired, msg = run_auto(theta0, Re, nx)
+        lines.append(f"N_x = {nx}: dt_pred = {lim[term]:.3g} s ({term}) = {lim[term] / nu_c2:.3g} nu/c^2; " + "; ".join(got))
+        lines.append(f"   auto: first dt {first:.3g} s = {first / nu_c2:.3g} nu/c^2, {sim.step} steps to t = {sim.t:.3g} s, "
+                     f"{'unstable: ' + ', '.join(fired) if fired else 'stable'} {msg}")
+        print(lines[-2] + "\n" + lines[-1], flush=True)
+    with open(os.path.join(a.out, "summary_damping.txt"), "w") as f:
+        f.write("\n".join(lines) + "\n")
     return 0
 
 
