@@ -303,7 +303,8 @@ def damping_limit(theta, k, G_a, G_b):
     (docs/stability.md, section 1). nu / c^2 falls as theta rises: evaluate it
     at the largest theta. Independent of h.
     """
-    return DAMPING * k * theta / closures.modulus(theta, G_a, G_b) if k > 0 else math.inf
+    G = closures.modulus(theta, G_a, G_b)
+    return DAMPING * k * theta / G if k > 0 and G > 0 else math.inf  # G underflows to 0: no wave to damp
 
 
 def dt_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, integrator=None):
