@@ -197,11 +197,9 @@ GUARD_NAMES = {"non-finite": "nonfinite", "crossed a wall": "wall", "volume frac
                "kinetic energy": "energy", "moved more than one slab": "slab"}
 
 
-def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, source="grid", integrator="paper"):
-    """Run one case; return its CSV row (dict)."""
-    cfg = case_config(theta0, Re, nx, multiple, steps, theta_frac, integrator=integrator)
-    k, h, lim, term, dt_ac = physics(theta0, Re, nx)
-    sim = Probe(cfg, MPI.COMM_SELF, theta_frac)
+def run_and_classify(sim):
+    """Run a probe to its end and classify the outcome by the criteria: the CSV columns shared
+    by the Couette and the column maps (steps_done is left to the row)."""
     guard = crash = message = ""
     t0 = time.perf_counter()
     try:
@@ -209,7 +207,8 @@ def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, sourc
             sim.run()
     except GuardError as e:
         message = str(e)
-        guard = next((v for kk, v in GUARD_NAMES.items() if kk in message), "other")
+        guard = "probe" if message.startswith("probe") else next(
+            (v for kk, v in GUARD_NAMES.items() if kk in message), "other")
     except Exception as e:  # noqa: BLE001 - anything else is a finding (the guard missed it)
         crash = type(e).__name__
         message = f"{type(e).__name__}: {e}"
@@ -220,16 +219,25 @@ def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, sourc
     if stable:
         err_max, err_rms = sim.profile()["err"]
     first = min(fired, key=lambda c: (sim.first[c], CRITERIA.index(c))) if fired else (crash or guard)
+    return {"t_done": sim.t, "stable": int(stable), "first_failure": first,
+            "fail_step": -1 if stable else sim.step,
+            **{f"{c}_step": sim.first[c] for c in CRITERIA},
+            "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
+            "max_speed_ratio": sim.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
+            "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3)}
+
+
+def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, source="grid", integrator="paper"):
+    """Run one case; return its CSV row (dict)."""
+    cfg = case_config(theta0, Re, nx, multiple, steps, theta_frac, integrator=integrator)
+    k, h, lim, term, dt_ac = physics(theta0, Re, nx)
+    sim = Probe(cfg, MPI.COMM_SELF, theta_frac)
+    outcome = run_and_classify(sim)
     return {
         "nx": nx, "theta0": theta0, "Re": Re, "k": k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
         "dt_acoustic_damping": dt_ac, "steps_planned": cfg.nsteps, "steps_done": sim.step,
-        "t_done": sim.t, "stable": int(stable), "first_failure": first,
-        "fail_step": -1 if stable else sim.step,
-        **{f"{c}_step": sim.first[c] for c in CRITERIA},
-        "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
-        "max_speed_ratio": sim.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
-        "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3), "source": source,
+        **outcome, "source": source,
         "integrator": integrator,
     }
 
@@ -727,36 +735,13 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
     sim = SettlingProbe(cfg, MPI.COMM_SELF, THETA_FRAC)
     th_eq = float(sim.theta_eq.max())
     lim_eq = settling_limits(theta0, nx, th_eq)
-    guard = crash = message = ""
-    t0 = time.perf_counter()
-    try:
-        with np.errstate(all="ignore"):
-            sim.run()
-    except GuardError as e:
-        message = str(e)
-        guard = "probe" if message.startswith("probe") else next(
-            (v for kk, v in GUARD_NAMES.items() if kk in message), "other")
-    except Exception as e:  # noqa: BLE001
-        crash = type(e).__name__
-        message = f"{type(e).__name__}: {e}"
-    wall_s = time.perf_counter() - t0
-    fired = [c for c in CRITERIA if sim.first[c] >= 0]
-    stable = not fired and not crash and not guard
-    err_max = err_rms = math.nan
-    if stable:
-        err_max, err_rms = sim.profile()["err"]
-    first = min(fired, key=lambda c: (sim.first[c], CRITERIA.index(c))) if fired else (crash or guard)
+    outcome = run_and_classify(sim)
     c2 = modulus(theta0, cfg.G_a, cfg.G_b) / cfg.rho_s
     return {
         "nx": nx, "theta0": theta0, "Re": Re, "k": cfg.k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
         "dt_acoustic_damping": 2.0 * cfg.nu / c2, "steps_planned": cfg.nsteps, "steps_done": sim.step,
-        "t_done": sim.t, "stable": int(stable), "first_failure": first,
-        "fail_step": -1 if stable else sim.step,
-        **{f"{c}_step": sim.first[c] for c in CRITERIA},
-        "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
-        "max_speed_ratio": sim.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
-        "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3), "source": source,
+        **outcome, "source": source,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
         "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
         "ke_bound": sim.ke_bound_per_mass,

@@ -9,13 +9,9 @@ names the wrong particle, misses the theta range, or lets a particle jump a slab
   two slabs in one step exits 3 with one message line. With 3 ranks or fewer every slab is this
   rank's or a neighbour's, so there the check fires only for a jump of more than the whole L_y.
 """
-import os
 import re
-import signal
-import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +22,7 @@ from parsph import config
 from parsph.particles import FLUID
 from parsph.solver import CHECKS, GuardError, Simulation
 
-from conftest import PAPER_TOML, ROOT, cli_env
+from conftest import PAPER_TOML
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
@@ -37,19 +33,8 @@ SMALL = ["domain.Ly=0.002", "output.times=[]", "output.progress_interval=0"]
 
 
 def mpirun(n, *argv, timeout=120):
-    """``mpirun -n N ARGV`` in its own session, killed after ``timeout``; the shared numba cache."""
-    env = {k: v for k, v in launch.env().items() if k != "NUMBA_CACHE_DIR"}
-    env.update(cli_env())
-    t0 = time.monotonic()
-    p = subprocess.Popen(launch.mpirun_cmd(n, *argv), cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        out, err = p.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
-        out, err = p.communicate()
-        raise AssertionError(f"mpirun did not finish within {timeout} s\n{out}\n{err}") from None
-    return launch.Result(p.returncode, out, err, time.monotonic() - t0)
+    """``mpirun -n N ARGV`` with launch.run's hard timeout and the shared numba cache."""
+    return launch.run(launch.mpirun_cmd(n, *argv), timeout=timeout, shared_cache=True)
 
 
 # ---- the worst particle, across ranks ---------------------------------------------------------------

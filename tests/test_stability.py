@@ -17,11 +17,8 @@ in tests/test_guards.py.
 import math
 import os
 import re
-import signal
-import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +31,7 @@ from parsph.output import output_files, read_profile
 from parsph.particles import FLUID
 from parsph.solver import CHECKS, GuardError, Simulation
 
-from conftest import PAPER_TOML, ROOT, cli_env, paper_raw, run_cli
+from conftest import PAPER_TOML, paper_raw, run_cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
@@ -233,19 +230,8 @@ ALL_RANKS = textwrap.dedent("""
 
 
 def mpirun(*argv, timeout=60):
-    """``mpirun -n 2 ARGV`` with launch.run's hard timeout, but the shared numba cache (no recompiling)."""
-    env = {k: v for k, v in launch.env().items() if k != "NUMBA_CACHE_DIR"}
-    env.update(cli_env())
-    t0 = time.monotonic()
-    p = subprocess.Popen(launch.mpirun_cmd(2, *argv), cwd=ROOT, env=env, stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        out, err = p.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
-        out, err = p.communicate()
-        raise AssertionError(f"mpirun did not finish within {timeout} s\n{out}\n{err}") from None
-    return launch.Result(p.returncode, out, err, time.monotonic() - t0)
+    """``mpirun -n 2 ARGV`` with launch.run's hard timeout and the shared numba cache (no recompiling)."""
+    return launch.run(launch.mpirun_cmd(2, *argv), timeout=timeout, shared_cache=True)
 
 
 def _sets(items):

@@ -82,10 +82,17 @@ class Result:
                 f"\n--- stderr ---\n{self.stderr}")
 
 
-def run(cmd, timeout=90, cwd=REPO, **extra_env):
-    """Run ``cmd`` in its own session; on timeout kill that whole process group and fail."""
+def run(cmd, timeout=90, cwd=REPO, shared_cache=False, **extra_env):
+    """Run ``cmd`` in its own session; on timeout kill that whole process group and fail.
+
+    ``shared_cache``: the package's own numba cache instead of the private one (no recompiling;
+    for tests of behaviour that the cache cannot affect), with the repository on PYTHONPATH."""
     t0 = time.monotonic()
-    p = subprocess.Popen(cmd, cwd=cwd, env=env(**extra_env), stdout=subprocess.PIPE,
+    e = env(**extra_env)
+    if shared_cache:
+        del e["NUMBA_CACHE_DIR"]
+        e["PYTHONPATH"] = str(REPO) + (os.pathsep + e["PYTHONPATH"] if e.get("PYTHONPATH") else "")
+    p = subprocess.Popen(cmd, cwd=cwd, env=e, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
         out, err = p.communicate(timeout=timeout)
