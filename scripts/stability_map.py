@@ -160,6 +160,13 @@ class Probe(Simulation):
         self.max_theta_dev = 0.0
         self.max_ke_ratio = 0.0
         self.max_speed_ratio = 0.0
+        # Couette: theta against theta_0, kinetic energy against the wall's 1/2 V_w^2 per unit mass
+        self.ke_bound_per_mass = 0.5 * cfg.V_w ** 2
+        self.speed_scale = abs(cfg.V_w)
+
+    def theta_ref(self, x):
+        """The theta each fluid particle's deviation is measured against, at its x."""
+        return self.cfg.theta0
 
     def measure(self):
         """(criteria violated now, theta deviation, KE ratio, speed ratio) of the owned fluid."""
@@ -170,13 +177,13 @@ class Probe(Simulation):
         with np.errstate(all="ignore"):
             nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all() and np.isfinite(acc).all())
             wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > cfg.L)).any())
-            dev = float(np.nanmax(np.abs(theta - cfg.theta0)) / cfg.theta0) if theta.size else 0.0
+            ref = self.theta_ref(pos[:, 0])
+            dev = float(np.nanmax(np.abs(theta - ref) / ref)) if theta.size else 0.0
             if not np.isfinite(theta).all():
                 dev = math.inf
             ke = 0.5 * float((m * (vel ** 2).sum(axis=1)).sum())
-            bound = 0.5 * float(m.sum()) * cfg.V_w ** 2
-            ke_ratio = ke / bound if math.isfinite(ke) else math.inf
-            speed = float(np.sqrt((vel ** 2).sum(axis=1)).max()) / abs(cfg.V_w)
+            ke_ratio = ke / (self.ke_bound_per_mass * float(m.sum())) if math.isfinite(ke) else math.inf
+            speed = float(np.sqrt((vel ** 2).sum(axis=1)).max()) / self.speed_scale
             speed = speed if math.isfinite(speed) else math.inf
         now = {"nonfinite": nonfinite, "wall": wall, "theta": not dev <= self.theta_frac,
                "energy": not ke_ratio <= 1.0}
@@ -694,26 +701,10 @@ class SettlingProbe(Probe):
         self.theta_eq = settling_equilibrium(self.xs, cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a,
                                              cfg.G_b, form=form)
         self.ke_bound_per_mass = cfg.scene.max_kinetic_energy(cfg, 1.0, 0.0)
+        self.speed_scale = cfg.velocity_scale
 
-    def measure(self):
-        ps, cfg = self.ps, self.cfg
-        n = ps.n_own
-        fl = ps.kind[:n] == FLUID
-        pos, vel, acc, theta, m = ps.pos[:n][fl], ps.vel[:n][fl], ps.acc[:n][fl], ps.theta[:n][fl], ps.mass[:n][fl]
-        with np.errstate(all="ignore"):
-            nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all() and np.isfinite(acc).all())
-            wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > cfg.L)).any())
-            ref = np.interp(np.nan_to_num(pos[:, 0]), self.xs, self.theta_eq)
-            dev = float(np.nanmax(np.abs(theta - ref) / ref)) if theta.size else 0.0
-            if not np.isfinite(theta).all():
-                dev = math.inf
-            ke = 0.5 * float((m * (vel ** 2).sum(axis=1)).sum())
-            ke_ratio = ke / (self.ke_bound_per_mass * float(m.sum())) if math.isfinite(ke) else math.inf
-            speed = float(np.sqrt((vel ** 2).sum(axis=1)).max()) / cfg.velocity_scale
-            speed = speed if math.isfinite(speed) else math.inf
-        now = {"nonfinite": nonfinite, "wall": wall, "theta": not dev <= self.theta_frac,
-               "energy": not ke_ratio <= 1.0}
-        return now, dev, ke_ratio, speed
+    def theta_ref(self, x):
+        return np.interp(np.nan_to_num(x), self.xs, self.theta_eq)
 
     def check(self):
         now, dev, ke_ratio, speed = self.measure()
