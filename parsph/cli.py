@@ -63,6 +63,12 @@ class _Signals:
         """The number of the signal received (0: none)."""
         return int(self.received or 0)
 
+    def release(self):
+        """Once the run is over, a signal ends the process at once again: mpirun's SIGTERM to a rank
+        still in MPI_Finalize after another rank's non-zero exit must not be swallowed by the flag."""
+        for sig in EXIT_SIGNAL:
+            signal.signal(sig, signal.SIG_DFL)
+
 
 def cmd_run(args):
     from mpi4py import MPI
@@ -74,7 +80,16 @@ def cmd_run(args):
         if root:
             print(msg, flush=True)
 
+    try:
+        return _run_reporting(comm, args, say, signals)
+    finally:
+        signals.release()
+
+
+def _run_reporting(comm, args, say, signals):
+    """_run, with every way it can end turned into one message and an exit code."""
     from .solver import GuardError, Interrupted
+    root = comm.rank == 0
     try:
         return _run(comm, args, say, signals)
     except UsageError as e:
