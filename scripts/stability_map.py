@@ -31,8 +31,10 @@ per-step non-finite flag calls):
 A run is *unstable* if any of them fired (or the solver raised anything else:
 column ``crash``), *stable* otherwise. The CSV has one row per run, with the
 step each criterion first fired (-1: never), the largest theta deviation, the
-largest kinetic-energy ratio and speed ratio seen, the guard's message, and
-the profile error against Eq. (8) at the end of stable runs.
+largest kinetic-energy ratio and speed ratio seen, the guard's message, the
+profile error against Eq. (8) at the end of stable runs, and the short commit
+the run was made at (``commit``: empty in rows from before the column; a CSV
+whose header lacks it is appended to without it).
 
 Not every failure is a time-step failure: some come at the same physical time
 whatever dt (the flow itself compacts near the moving plate). ``verdict``
@@ -41,8 +43,8 @@ time within 5 %: ``physical``); ``--long`` confirms each such column with a
 run at half the dt continued to 1.3x that time. Measured limits count
 time-step failures only.
 
-The grid (issue "Stability map"): theta_0 x Re x multiple at N_x = 50 and 10,
-and a subset at N_x = 200. Re = V_w L rho_s / (k theta_0), so k = V_w L rho_s /
+The grid (issue "Stability map"): theta_0 x Re x multiple at N_x = 10, 50 and
+200 (the whole grid at each). Re = V_w L rho_s / (k theta_0), so k = V_w L rho_s /
 (Re theta_0). ``--refine`` extends each N_x = 50 (theta_0, Re) column beyond
 the grid (multiples up to 64 or down to 1/64) and bisects its time-step limit
 to within 10 %. Outputs: stability_map.csv (paper integrator),
@@ -98,7 +100,6 @@ THETAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.6, 0.64, 0.7)
 RES = (1.0, 10.0, 57.0, 400.0, 2000.0)
 MULTS = (0.25, 0.5, 1.0, 1.5, 2.0, 4.0)
 NXS = (10, 50, 200)
-SUBSET_200 = {"theta0": (0.05, 0.35, 0.7), "Re": (1.0, 57.0, 2000.0)}
 STEPS = 2000
 THETA_FRAC = 0.2       # criterion "theta": largest accepted |theta - theta0| / theta0
 H_OVER_DX = 1.25
@@ -109,7 +110,20 @@ FIELDS = ["nx", "theta0", "Re", "k", "multiple", "dt", "dt_limit", "limit_term",
           "dt_acoustic_damping", "steps_planned", "steps_done", "t_done", "stable", "first_failure",
           "fail_step", "nonfinite_step", "wall_step", "theta_step", "energy_step", "max_theta_dev",
           "max_ke_ratio", "max_speed_ratio", "err_max", "err_rms", "guard", "crash", "message", "wall_s",
-          "source"]
+          "source", "commit"]
+
+
+def _commit():
+    """The short commit the rows are run at (a row without one predates the column: see docs/stability.md)."""
+    import subprocess
+    try:
+        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return ""
+
+
+COMMIT = _commit()
 
 
 def base_raw():
@@ -244,7 +258,7 @@ def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, sourc
         "nx": nx, "theta0": theta0, "Re": Re, "k": k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
         "dt_acoustic_damping": dt_ac, "steps_planned": cfg.nsteps, "steps_done": sim.step,
-        **outcome, "source": source,
+        **outcome, "source": source, "commit": COMMIT,
         "integrator": integrator,
     }
 
@@ -257,8 +271,6 @@ def grid(nxs, quick=False):
     for nx in nxs:
         for t in THETAS:
             for r in RES:
-                if nx == 200 and (t not in SUBSET_200["theta0"] or r not in SUBSET_200["Re"]):
-                    continue
                 cases += [(t, r, nx, m) for m in MULTS]
     return cases
 
@@ -732,7 +744,7 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
         "nx": nx, "theta0": theta0, "Re": Re, "k": cfg.k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
         "dt_acoustic_damping": 2.0 * cfg.nu / c2, "steps_planned": cfg.nsteps, "steps_done": sim.step,
-        **outcome, "source": source,
+        **outcome, "source": source, "commit": COMMIT,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
         "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
         "ke_bound": sim.ke_bound_per_mass,
