@@ -25,7 +25,6 @@ def bytes_per_particle(cfg):
     Measured (README, "Performance"): 550 B in 2-D, 1.7 KB in 3-D at
     h = 1.25 dx; this gives 950 B and 1.9 KB.
     """
-    import math
     reach = 2.0 * cfg.h
     cells = [reach / s for s in cfg.spacing]
     ball = math.pi * cells[0] * cells[1] if cfg.dim == 2 else 4.0 / 3.0 * math.pi * math.prod(cells)

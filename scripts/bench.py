@@ -135,7 +135,7 @@ def reference(sim, repeat=20):
              W.nbr_n, W.nbr_j, W.nbr_f, -1.0 / cfg.rho_s ** 2, cfg.k, ax, ay)
     result = {"forces": timed(reference_forces, fargs, repeat) / pairs * 1e9}
     grid = neighbours.sort_into_cells(
-        ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, ps.n_own, sim.x0, sim.support,
+        ps.pos, ps.vel, ps.mass, ps.kind, ps.gid, n, ps.n_own, sim.x0, sim.rates.cell,
         W.order, W.cell_of, W.tmp, W.sx, W.sy, W.sz, W.svx, W.svy, W.svz, W.sm, W.skind, W.owned)
     start, ncx, ncy = grid[:3]
     dargs = (n, W.sx, W.sy, W.sm, W.cell_of, start, ncx, ncy, cfg.h, sim.kernel.norm(cfg.h, cfg.dim), np.zeros(n))

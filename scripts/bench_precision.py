@@ -67,11 +67,7 @@ def make_loops(ft):
     with every constant of type ``ft``; sums in float64."""
     Z, HALF, ONE, TWO, FOUR, THREE, NINE, TWELVE = (ft(v) for v in (0.0, 0.5, 1.0, 2.0, 4.0, 3.0, 9.0, 12.0))
 
-    @njit(inline="always")
-    def cell_range(lo_edge, width, cs, origin, ncells):
-        first = max(int(math.floor(lo_edge / cs)) - origin, 0)
-        last = min(int(math.floor((lo_edge + width) / cs)) - origin, ncells - 1)
-        return first, last
+    cell_range = equations._cell_range  # cell ranges in float64, as in the solver
 
     @njit(parallel=True)
     def density(n, sx, sy, sm, skind, owned, start, ncx, ncy, lox, loy, x0, cs, h, norm, rho, nbr_n, nbr_j,

@@ -708,10 +708,9 @@ class SettlingProbe(Probe):
 
     def __init__(self, cfg, comm, theta_frac):
         super().__init__(cfg, comm, theta_frac)
-        form = "paper" if cfg.get("numerics.pressure_form") == "paper" else "closure"
         self.xs = np.linspace(0.0, cfg.L, 2001)
-        self.theta_eq = settling_equilibrium(self.xs, cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a,
-                                             cfg.G_b, form=form)
+        # the balance the run's pressure form converges to: what the scene's walls hold
+        self.theta_eq = cfg.scene.wall_theta(cfg, self.xs)
         self.ke_bound_per_mass = cfg.scene.max_kinetic_energy(cfg, 1.0, 0.0)
         self.speed_scale = cfg.velocity_scale
 
