@@ -94,6 +94,9 @@ SCHEMA = {
         "pressure_form": Key("str", "paper", choices=("paper", "consistent"),
                              doc="Eq. (5) as printed (G at the pair mean; discretises grad(G theta)) or "
                                  "p = G/(G_a ln 10), whose gradient is G grad theta"),
+        "skin": Key("float", 0.4, positive=True, hi=4.0,
+                    doc="neighbour-list skin in units of h: the list holds pairs within 2h + skin and is "
+                        "rebuilt when particles near each other moved more than the skin relative to each other"),
         "viscosity_form": Key("str", "paper", choices=("paper", "symmetric"),
                               doc="mu_i = k theta_i (paper) or the pair mean k (theta_i + theta_j)/2"),
     },

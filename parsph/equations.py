@@ -1,7 +1,7 @@
-"""The SPH equations of the paper as numba loops over flat arrays.
+"""The SPH equations of the paper as numba loops over the unique pairs of the neighbour list.
 
-- Eq. (3): summation density ``rho_bar_i = sum_j m_j W_ij`` (fluid and wall j),
-  ``theta_i = rho_bar_i / rho_s``.
+- Eq. (3): summation density ``rho_bar_i = sum_j m_j W_ij`` (fluid and wall j,
+  and i itself), ``theta_i = rho_bar_i / rho_s``.
 - Eq. (5): momentum, for fluid particle i:
 
       dv_i/dt = - (1/rho_s^2) sum_j m_j G((theta_i+theta_j)/2) (1/theta_i + 1/theta_j) (r_ij/r_ij) dW/dr
@@ -20,30 +20,25 @@
   ``v_ij = beta (v_i - v_j)``, ``beta = min(beta_max, 1 + d_j/d_i)``, d the
   distance to the wall's plate (x = 0 or x = L).
 
-The loops work on copies of the particle fields in cell order (see
-:mod:`parsph.neighbours`), positions and velocities as separate x, y, z
-arrays (z = 0 in 2-D, so one code path serves both), and write their results
-straight back to the particle arrays through ``order``. The density pass
-finds each fluid particle's neighbours row by row: for every row of cells
-(along x) within 2h of it, the cells of that row that meet its disc of
-radius 2h are consecutive in cell order, so their particles are one
-contiguous run of candidates, visited in a fixed order and by gid inside a
-cell. Candidates within 2h get W and (dW/dr)/r from a branch-free kernel
-function; the density pass stores them in a neighbour list of fixed width
-per particle that the momentum pass walks in the same order. Every sum is
-thus taken in an order that does not depend on the decomposition, and each
-particle's sum is independent of the others': the loops run over particles
-with ``prange`` (threads inside a rank, ``--threads``), with the same result
-bit for bit on any thread count. Wall particles hold their density (set by
-the solver). These functions know nothing of MPI: halo copies are ordinary
-neighbours.
+Each pair (i, j) of :mod:`parsph.neighbours` is evaluated once: W and
+(dW/dr)/r in the density pass, and in the momentum pass the two factors
+symmetric in i and j: ``P`` (pressure, G at the pair mean factorised as
+10^G_b 10^(G_a theta_i/2) 10^(G_a theta_j/2)) and ``V`` (viscous). Particle
+i receives ``m_j (P r_ij + mu_i beta V v_ij)``, particle j the exact
+negative of ``m_i (P r_ij + mu_j beta V v_ij)``. Every particle adds its
+contributions in pair order (its neighbours' sorted order) starting from the
+same value, whether the serial loops scatter them pair by pair or the
+threaded loops (``prange``) store the pair values and gather them per
+particle: the result is the same bit for bit on any thread and rank count.
+Candidates beyond 2h add exact zeros (the kernel is branch-free and vanishes
+there). Only owned fluid particles receive sums; wall particles hold their
+density. These functions know nothing of MPI: ghosts are ordinary particles.
 
 The switches (pressure, viscosity, symmetric viscosity, walls, consistent
 pressure, three dimensions) are compile-time constants made by
-:func:`switch`: an empty tuple is off, ``(1,)`` is on, so each value is its own type, numba compiles one version
-per combination a scene uses, ``len(switch)`` is a constant, and a term
-switched off leaves no branch in the pair loop. (``numba.literally`` does the
-same but costs tens of milliseconds per call.)
+:func:`switch`: an empty tuple is off, ``(1,)`` is on, so each value is its
+own type, numba compiles one version per combination a scene uses, and a
+term switched off leaves no branch in the pair loop.
 """
 import math
 
@@ -60,80 +55,67 @@ def switch(flag):
     return ON if flag else OFF
 
 
-@njit(cache=True, inline="always")
-def _cell_range(lo_edge, width, cs, origin, ncells):
-    """Cells (clamped to 0..ncells-1) that meet [lo_edge, lo_edge + width) on a grid of side cs."""
-    first = max(int(math.floor(lo_edge / cs)) - origin, 0)
-    last = min(int(math.floor((lo_edge + width) / cs)) - origin, ncells - 1)
-    return first, last
+# ---- Eq. (3) ------------------------------------------------------------------------------------
+@njit(cache=True)
+def density_serial(order, pstart, pj, n, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp):
+    """Eq. (3) into ``rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``fp``.
+
+    Particle order[a]'s pairs are pstart[a] .. pstart[a+1]-1 (its later
+    neighbours). Its sum starts with its own term, gets the pairs of earlier
+    particles as they come, then its own pairs: the pair order.
+    """
+    for k in range(n):
+        rho_sum[k] = mass[k] * w0
+    for a in range(n):
+        lo = pstart[a]
+        hi = pstart[a + 1]
+        if lo == hi:
+            continue
+        i = order[a]
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        zi = pos[i, 2] if len(three_d) else 0.0
+        mi = mass[i]
+        s = rho_sum[i]
+        for p in range(lo, hi):
+            j = pj[p]
+            dx = xi - pos[j, 0]
+            dy = yi - pos[j, 1]
+            r2 = dx * dx + dy * dy
+            if len(three_d):
+                dz = zi - pos[j, 2]
+                r2 += dz * dz
+            w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
+            fp[p] = f
+            s += mass[j] * w
+            rho_sum[j] += mi * w
+        rho_sum[i] = s
 
 
 @njit(cache=True, parallel=True)
-def density(n, sx, sy, sz, sm, skind, owned, order, cell_of, start, ncx, ncy, ncz, lox, loy, loz, x0, cs,
-            h, norm, kid, rho_s, G_a, G_b, pressure, consistent, three_d, rho, stheta, sinv, spress,
-            nbr_n, nbr_j, nbr_f):
-    """Eq. (3) for the owned fluid particles among sorted places 0..n-1 into ``rho[order[i]]``; walls hold theirs.
-
-    Candidates: for each row of cells (along x) within 2h of particle i, the
-    run of cells that meets the disc of radius 2h on that row, as one
-    contiguous range of sorted places (the cell grid of
-    :func:`parsph.neighbours.sort_into_cells`). Also fills the neighbour
-    list: fluid particle i's neighbours are ``nbr_j[i, :nbr_n[i]]`` with
-    ``nbr_f = (dW/dr)/r``, and the owned particles' factors of Eq. (5)
-    (:func:`rho_factors`). Returns the largest neighbour count; if it exceeds
-    the list width the list is incomplete and the call must be repeated with
-    wider arrays.
-    """
-    inv_h = 1.0 / h
-    support = 2.0 * h
-    support2 = support * support
-    pad = 1e-9 * h  # rounding of the cell edges: never miss a neighbour at r just below 2h
-    width = nbr_j.shape[1]
-    last = width - 1
-    for i in prange(n):
-        cnt = 0
-        if owned[i] and skind[i] != FLUID:
-            rho_factors(i, rho[order[i]], rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
-        elif owned[i]:
-            s = 0.0
-            xi = sx[i]
-            yi = sy[i]
-            zi = sz[i]
-            cy_lo, cy_hi = _cell_range(yi - support - pad, 2.0 * (support + pad), cs, loy, ncy)
-            cz_lo, cz_hi = 0, 0
-            if len(three_d):
-                cz_lo, cz_hi = _cell_range(zi - support - pad, 2.0 * (support + pad), cs, loz, ncz)
-            for cz in range(cz_lo, cz_hi + 1):
-                gz = 0.0  # distance from particle i to the layer of cells cz
-                if len(three_d):
-                    gz = max((cz + loz) * cs - zi, zi - (cz + loz + 1) * cs, 0.0)
-                for cy in range(cy_lo, cy_hi + 1):
-                    gy = max((cy + loy) * cs - yi, yi - (cy + loy + 1) * cs, 0.0)
-                    reach2 = support2 - gy * gy - gz * gz
-                    if reach2 <= 0.0:
-                        continue
-                    half = math.sqrt(reach2) + pad
-                    cx_lo, cx_hi = _cell_range(xi - x0 - half, 2.0 * half, cs, lox, ncx)
-                    row = (cz * ncy + cy) * ncx
-                    for j in range(start[row + cx_lo], start[row + cx_hi + 1]):
-                        dx = xi - sx[j]
-                        dy = yi - sy[j]
-                        r2 = dx * dx + dy * dy
-                        if len(three_d):
-                            dz = zi - sz[j]
-                            r2 += dz * dz
-                        if r2 < support2:
-                            r = math.sqrt(r2)
-                            w, f = kernel_w_f(kid, r, inv_h, norm)
-                            s += sm[j] * w
-                            k = min(cnt, last)
-                            nbr_j[i, k] = j
-                            nbr_f[i, k] = f
-                            cnt += 1 if j != i else 0
-            rho[order[i]] = s
-            rho_factors(i, s, rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
-        nbr_n[i] = cnt
-    return nbr_n[:n].max() if n > 0 else 0
+def density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp,
+                     wp, need, offset, entry):
+    """As :func:`density_serial` for the particles that ``need`` sums, with threads: pairs, then a gather."""
+    for p in prange(npairs):
+        i = pi[p]
+        j = pj[p]
+        dx = pos[i, 0] - pos[j, 0]
+        dy = pos[i, 1] - pos[j, 1]
+        r2 = dx * dx + dy * dy
+        if len(three_d):
+            dz = pos[i, 2] - pos[j, 2]
+            r2 += dz * dz
+        w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
+        wp[p] = w
+        fp[p] = f
+    for k in prange(n):
+        s = mass[k] * w0
+        if need[k]:
+            for e in range(offset[k], offset[k + 1]):
+                p = entry[e] >> 1
+                other = pi[p] if entry[e] & 1 else pj[p]
+                s += mass[other] * wp[p]
+        rho_sum[k] = s
 
 
 @njit(cache=True, inline="always")
@@ -149,88 +131,213 @@ def pressure_factor(th, rho_i, G_a, G_b, consistent):
     return 10.0 ** (0.5 * G_a * th)
 
 
+@njit(cache=True, parallel=True)
+def particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel,
+                     theta, fields):
+    """Per particle of start..stop-1: rho (owned fluid: from ``rho_sum``), theta, and the row the pairs read.
+
+    ``fields[k]`` = (vx, vy, vz, theta, 1/rho_bar, 1/theta, pressure factor,
+    mu/k = theta): one row per particle, so that a pair reads one cache line
+    of its neighbour. Owned wall particles and halo copies keep their rho.
+    """
+    dim = vel.shape[1]
+    for k in prange(start, stop):
+        if k < owned_stop and kind[k] == FLUID:
+            rho[k] = rho_sum[k]
+        r = rho[k]
+        th = r / rho_s
+        theta[k] = th
+        for d in range(dim):
+            fields[k, d] = vel[k, d]
+        fields[k, 3] = th
+        fields[k, 4] = 1.0 / r
+        fields[k, 5] = 1.0 / th
+        if len(pressure):
+            fields[k, 6] = pressure_factor(th, r, G_a, G_b, consistent)
+
+
+# ---- Eq. (5) ------------------------------------------------------------------------------------
 @njit(cache=True, inline="always")
-def rho_factors(k, rho_k, rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress):
-    """Per-particle factors of Eq. (5) at sorted place k: theta = rho_bar / rho_s, 1/rho_bar, 1/theta, pressure."""
-    th = rho_k / rho_s
-    stheta[k] = th
-    sinv[k, 0] = 1.0 / rho_k
-    sinv[k, 1] = 1.0 / th
-    if len(pressure):
-        spress[k] = pressure_factor(th, rho_k, G_a, G_b, consistent)
+def _beta(xk, xo, L, beta_max):
+    """The no-slip factor beta = min(beta_max, 1 + d_o/d_k) of fluid particle k seen by wall particle o."""
+    if xo < 0.0:
+        d_o = -xo
+        d_k = xk
+    else:
+        d_o = xo - L
+        d_k = L - xk
+    if d_k > 0.0:
+        return min(beta_max, 1.0 + d_o / d_k)
+    return beta_max
+
+
+@njit(cache=True)
+def momentum_serial(order, pstart, pj, n, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
+                    k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc):
+    """Eq. (5) into ``acc`` of the owned particles (walls: zero), each pair once, in pair order.
+
+    Pair (i, j): P (pressure) and V (viscous) are symmetric; i gets
+    m_j (P r_ij + mu_i beta V v_ij), j the exact negative of m_i (P r_ij +
+    mu_j beta V v_ij).
+    """
+    c_press = -(10.0 ** G_b) / (rho_s * rho_s)
+    dim = acc.shape[1]
+    for k in range(n):
+        for d in range(dim):
+            acc[k, d] = 0.0
+    for a in range(n):
+        lo = pstart[a]
+        hi = pstart[a + 1]
+        if lo == hi:
+            continue
+        i = order[a]
+        need_i = need[i]
+        fluid_i = kind[i] == FLUID
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        zi = pos[i, 2] if len(three_d) else 0.0
+        vxi = fields[i, 0]
+        vyi = fields[i, 1]
+        vzi = fields[i, 2]
+        th_i = fields[i, 3]
+        irho_i = fields[i, 4]
+        ith_i = fields[i, 5]
+        pr_i = fields[i, 6]
+        mi = mass[i]
+        ax = acc[i, 0]
+        ay = acc[i, 1]
+        az = acc[i, 2] if len(three_d) else 0.0
+        for p in range(lo, hi):
+            j = pj[p]
+            f = fp[p]
+            th_j = fields[j, 3]
+            P = 0.0
+            if len(pressure):
+                if len(consistent):
+                    P = -(pr_i + fields[j, 6]) * f
+                else:
+                    P = c_press * pr_i * fields[j, 6] * (ith_i + fields[j, 5]) * f
+            V = 0.0
+            if len(viscosity):
+                V = (th_i + th_j) * irho_i * fields[j, 4] * f
+            rx = xi - pos[j, 0]
+            ry = yi - pos[j, 1]
+            vx = vxi - fields[j, 0]
+            vy = vyi - fields[j, 1]
+            rz = 0.0
+            vz = 0.0
+            if len(three_d):
+                rz = zi - pos[j, 2]
+                vz = vzi - fields[j, 2]
+            if need_i:
+                s = 0.0
+                if len(viscosity):
+                    mu = 0.5 * k_visc * (th_i + th_j) if len(symmetric_mu) else k_visc * th_i
+                    if len(walls) and kind[j] != FLUID:
+                        mu *= _beta(xi, pos[j, 0], L, beta_max)
+                    s = mu * V
+                m = mass[j]
+                ax += m * (P * rx + s * vx)
+                ay += m * (P * ry + s * vy)
+                if len(three_d):
+                    az += m * (P * rz + s * vz)
+            if need[j]:
+                s = 0.0
+                if len(viscosity):
+                    mu = 0.5 * k_visc * (th_i + th_j) if len(symmetric_mu) else k_visc * th_j
+                    if len(walls) and not fluid_i:
+                        mu *= _beta(pos[j, 0], xi, L, beta_max)
+                    s = mu * V
+                acc[j, 0] -= mi * (P * rx + s * vx)
+                acc[j, 1] -= mi * (P * ry + s * vy)
+                if len(three_d):
+                    acc[j, 2] -= mi * (P * rz + s * vz)
+        if need_i:
+            acc[i, 0] = ax
+            acc[i, 1] = ay
+            if len(three_d):
+                acc[i, 2] = az
+    for k in range(n_own):
+        _finish_acc(acc, k, kind, g, three_d)
+
+
+@njit(cache=True, inline="always")
+def _finish_acc(acc, k, kind, g, three_d):
+    if kind[k] == FLUID:
+        acc[k, 0] += g[0]
+        acc[k, 1] += g[1]
+        if len(three_d):
+            acc[k, 2] += g[2]
+    else:
+        acc[k, 0] = 0.0
+        acc[k, 1] = 0.0
+        if len(three_d):
+            acc[k, 2] = 0.0
 
 
 @njit(cache=True, parallel=True)
-def momentum(n, sx, sy, sz, svx, svy, svz, sm, skind, owned, order, rho, stheta, sinv, spress,
-             nbr_n, nbr_j, nbr_f, rho_s, G_a, G_b, k_visc, L, beta_max, g,
-             pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc, theta):
-    """Eq. (5): acceleration of each owned fluid particle into ``acc[order[i]]`` (walls: zero).
-
-    The owned particles' factors (:func:`rho_factors`) come from the density
-    pass; those of the halo copies are made here from ``rho`` (their
-    refreshed densities), in a serial loop: one threaded region per pass.
-    Writes theta back for the owned particles.
-    """
-    G_pref = 10.0 ** G_b
-    c_press = -G_pref / (rho_s * rho_s)
-    for k in range(n):
-        if not owned[k]:
-            rho_factors(k, rho[order[k]], rho_s, G_a, G_b, pressure, consistent, stheta, sinv, spress)
-    for i in prange(n):
-        if owned[i]:
-            o = order[i]
-            theta[o] = stheta[i]
-            ax = 0.0
-            ay = 0.0
-            az = 0.0
-            if skind[i] == FLUID:
-                th_i = stheta[i]
-                inv_th_i = sinv[i, 1]
-                mu_i = k_visc * th_i
-                inv_rho_i = sinv[i, 0]
-                pr_i = spress[i]
-                cp_i = c_press * pr_i
-                xi = sx[i]
-                yi = sy[i]
-                zi = sz[i]
-                vxi = svx[i]
-                vyi = svy[i]
-                vzi = svz[i]
-                for p in range(nbr_n[i]):
-                    j = nbr_j[i, p]
-                    f_over_r = nbr_f[i, p]
-                    m_j = sm[j]
-                    if len(pressure):
-                        if len(consistent):
-                            cp = -m_j * (pr_i + spress[j]) * f_over_r
-                        else:
-                            cp = m_j * cp_i * spress[j] * (inv_th_i + sinv[j, 1]) * f_over_r
-                        ax += cp * (xi - sx[j])
-                        ay += cp * (yi - sy[j])
-                        if len(three_d):
-                            az += cp * (zi - sz[j])
-                    if len(viscosity):
-                        beta = 1.0
-                        if len(walls) and skind[j] != FLUID:
-                            if sx[j] < 0.0:
-                                d_j = -sx[j]
-                                d_i = xi
-                            else:
-                                d_j = sx[j] - L
-                                d_i = L - xi
-                            beta = beta_max
-                            if d_i > 0.0:
-                                beta = min(beta_max, 1.0 + d_j / d_i)
-                        mu = 0.5 * k_visc * (th_i + stheta[j]) if len(symmetric_mu) else mu_i
-                        cv = mu * m_j * (th_i + stheta[j]) * inv_rho_i * sinv[j, 0] * f_over_r * beta
-                        ax += cv * (vxi - svx[j])
-                        ay += cv * (vyi - svy[j])
-                        if len(three_d):
-                            az += cv * (vzi - svz[j])
-                ax += g[0]
-                ay += g[1]
-                az += g[2]
-            acc[o, 0] = ax
-            acc[o, 1] = ay
-            if len(three_d):
-                acc[o, 2] = az
+def momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
+                      k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
+                      Pp, Vp, offset, entry):
+    """As :func:`momentum_serial` with threads: P and V per pair, then a gather per particle in pair order,
+    with the same arithmetic, so that the result is the same bit for bit."""
+    c_press = -(10.0 ** G_b) / (rho_s * rho_s)
+    dim = acc.shape[1]
+    for p in prange(npairs):
+        i = pi[p]
+        j = pj[p]
+        f = fp[p]
+        P = 0.0
+        if len(pressure):
+            if len(consistent):
+                P = -(fields[i, 6] + fields[j, 6]) * f
+            else:
+                P = c_press * fields[i, 6] * fields[j, 6] * (fields[i, 5] + fields[j, 5]) * f
+        V = 0.0
+        if len(viscosity):
+            V = (fields[i, 3] + fields[j, 3]) * fields[i, 4] * fields[j, 4] * f
+        Pp[p] = P
+        Vp[p] = V
+    for k in prange(n_own):
+        ax = 0.0
+        ay = 0.0
+        az = 0.0
+        if need[k]:
+            for e in range(offset[k], offset[k + 1]):
+                p = entry[e] >> 1
+                i = pi[p]
+                j = pj[p]
+                o = i if entry[e] & 1 else j
+                P = Pp[p]
+                V = Vp[p]
+                rx = pos[i, 0] - pos[j, 0]
+                ry = pos[i, 1] - pos[j, 1]
+                vx = fields[i, 0] - fields[j, 0]
+                vy = fields[i, 1] - fields[j, 1]
+                rz = 0.0
+                vz = 0.0
+                if len(three_d):
+                    rz = pos[i, 2] - pos[j, 2]
+                    vz = fields[i, 2] - fields[j, 2]
+                s = 0.0
+                if len(viscosity):
+                    mu = 0.5 * k_visc * (fields[i, 3] + fields[j, 3]) if len(symmetric_mu) else k_visc * fields[k, 3]
+                    if len(walls) and kind[o] != FLUID:
+                        mu *= _beta(pos[k, 0], pos[o, 0], L, beta_max)
+                    s = mu * V
+                m = mass[o]
+                if entry[e] & 1:
+                    ax -= m * (P * rx + s * vx)
+                    ay -= m * (P * ry + s * vy)
+                    if len(three_d):
+                        az -= m * (P * rz + s * vz)
+                else:
+                    ax += m * (P * rx + s * vx)
+                    ay += m * (P * ry + s * vy)
+                    if len(three_d):
+                        az += m * (P * rz + s * vz)
+        acc[k, 0] = ax
+        acc[k, 1] = ay
+        if len(three_d):
+            acc[k, 2] = az
+        _finish_acc(acc, k, kind, g, three_d)

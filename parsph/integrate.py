@@ -7,12 +7,14 @@
     r* = r^n + dt/2 v^n,  v* = v^n + dt/2 R(r^n, v^n)
     r^{n+1} = r^n + dt v*,  v^{n+1} = v^n + dt R(r*, v*).
 
-Wall particles move with their prescribed velocity (r += dt v). Positions are
-wrapped into the periodic box at the end of a step (``box[d]`` is the period
-of direction d, 0 where it is not periodic; y always is). Each function returns
-the number of owned particles whose new state is not finite, so that a blow-up
-is caught before the next neighbour search. Particles are independent: the
-loops are threaded (prange), with the count as a reduction.
+Wall particles move with their prescribed velocity (r += dt v). Positions
+are not wrapped into the periodic box here: particles stay where they are
+until the next rebuild of the neighbour list, which wraps them. Each function
+updates ``disp = pos - ref`` (the displacement since that rebuild) and
+``jump`` (how far a particle moved in the step), and returns the number of
+owned particles whose new state is not finite, so that a blow-up is caught
+before the next pass. Particles are independent: the loops are threaded
+(prange), with the count as a reduction.
 """
 import math
 
@@ -21,39 +23,30 @@ from numba import njit, prange
 from .particles import FLUID
 
 INTEGRATORS = ("paper", "midpoint")
-EVALUATIONS = {"paper": 1, "midpoint": 2}  # right-hand sides per step
 
 
 @njit(cache=True, inline="always")
-def _finite(pos, vel, i):
+def _finish(pos, vel, ref, disp, jump, i, old):
+    """disp and jump of particle i (``old``: its position before the step); 1 if its state is finite."""
+    ok = 1
+    moved = 0.0
     for d in range(pos.shape[1]):
+        disp[i, d] = pos[i, d] - ref[i, d]
+        moved += (pos[i, d] - old[d]) ** 2
         if not (math.isfinite(pos[i, d]) and math.isfinite(vel[i, d])):
-            return 0
-    return 1
-
-
-@njit(cache=True, inline="always")
-def _wrap(pos, i, box):
-    for d in range(pos.shape[1]):
-        period = box[d]
-        if period > 0.0:
-            y = pos[i, d]
-            if y >= period:
-                y -= period
-            elif y < 0.0:
-                y += period
-                if y >= period:
-                    y = 0.0
-            pos[i, d] = y
+            ok = 0
+    jump[i] = math.sqrt(moved)
+    return ok
 
 
 @njit(cache=True, parallel=True)
-def step_paper(pos, vel, acc, kind, n_own, dt, box):
+def step_paper(pos, vel, acc, kind, n_own, dt, ref, disp, jump):
     """Eqs. (6)-(7)."""
     dim = pos.shape[1]
     half_dt2 = 0.5 * dt * dt
     bad = 0
     for i in prange(n_own):
+        old = (pos[i, 0], pos[i, 1], pos[i, dim - 1])
         if kind[i] == FLUID:
             for d in range(dim):
                 pos[i, d] += dt * vel[i, d] + half_dt2 * acc[i, d]
@@ -61,37 +54,37 @@ def step_paper(pos, vel, acc, kind, n_own, dt, box):
         else:
             for d in range(dim):
                 pos[i, d] += dt * vel[i, d]
-        _wrap(pos, i, box)
-        bad += 1 - _finite(pos, vel, i)
+        bad += 1 - _finish(pos, vel, ref, disp, jump, i, old)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0):
-    """Save (r^n, v^n) and move to the midpoint state (r*, v*); no wrap."""
+def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, ref, disp, jump):
+    """Save (r^n, v^n) and move to the midpoint state (r*, v*)."""
     dim = pos.shape[1]
     bad = 0
     for i in prange(n_own):
+        old = (pos[i, 0], pos[i, 1], pos[i, dim - 1])
         for d in range(dim):
             pos0[i, d] = pos[i, d]
             vel0[i, d] = vel[i, d]
             pos[i, d] += 0.5 * dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] += 0.5 * dt * acc[i, d]
-        bad += 1 - _finite(pos, vel, i)
+        bad += 1 - _finish(pos, vel, ref, disp, jump, i, old)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, box):
+def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, ref, disp, jump):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*)."""
     dim = pos.shape[1]
     bad = 0
     for i in prange(n_own):
+        old = (pos0[i, 0], pos0[i, 1], pos0[i, dim - 1])
         for d in range(dim):
             pos[i, d] = pos0[i, d] + dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] = vel0[i, d] + dt * acc[i, d]
-        _wrap(pos, i, box)
-        bad += 1 - _finite(pos, vel, i)
+        bad += 1 - _finish(pos, vel, ref, disp, jump, i, old)
     return bad

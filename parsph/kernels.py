@@ -59,27 +59,7 @@ def wendland_dwdr(r, inv_h, norm):
     return 0.0
 
 
-@njit(cache=True, inline="always")
-def wendland1d_w(r, inv_h, norm):
-    """Wendland C2 in 1-D on support 2h: (1 - q/2)^3 (1.5q + 1)."""
-    q = r * inv_h
-    if q < 2.0:
-        t = 1.0 - 0.5 * q
-        return norm * t * t * t * (1.5 * q + 1.0)
-    return 0.0
-
-
-@njit(cache=True, inline="always")
-def wendland1d_dwdr(r, inv_h, norm):
-    """dW/dr of the 1-D Wendland C2 kernel: -3 q (1 - q/2)^2 / h."""
-    q = r * inv_h
-    if q < 2.0:
-        t = 1.0 - 0.5 * q
-        return -3.0 * norm * inv_h * q * t * t
-    return 0.0
-
-
-CUBIC, WENDLAND, WENDLAND_1D = 0, 1, 2
+CUBIC, WENDLAND = 0, 1
 
 
 @njit(cache=True, inline="always")
@@ -100,15 +80,11 @@ def kernel_w_f(kid, r, inv_h, norm):
         b = max(1.0 - q, 0.0)
         w = norm * (a * a * a - 4.0 * b * b * b)
         f = norm * inv_h * inv_h * (9.0 * q - 12.0 if q < 1.0 else -3.0 * a * a / q)
-    elif kid == WENDLAND:
+    else:
         t = max(1.0 - 0.5 * q, 0.0)
         t3 = t * t * t
         w = norm * t3 * t * (2.0 * q + 1.0)
         f = -5.0 * norm * inv_h * inv_h * t3
-    else:
-        t = max(1.0 - 0.5 * q, 0.0)
-        w = norm * t * t * t * (1.5 * q + 1.0)
-        f = -3.0 * norm * inv_h * inv_h * t * t
     return w, f
 
 
@@ -130,8 +106,6 @@ CUBIC_SPLINE = Kernel("cubic_spline", cubic_w, cubic_dwdr,
                       (1.0 / 6.0, 5.0 / (14.0 * math.pi), 1.0 / (4.0 * math.pi)), CUBIC)
 _WENDLAND_23 = Kernel("wendland_c2", wendland_w, wendland_dwdr,
                       (math.nan, 7.0 / (4.0 * math.pi), 21.0 / (16.0 * math.pi)), WENDLAND)
-_WENDLAND_1 = Kernel("wendland_c2", wendland1d_w, wendland1d_dwdr, (5.0 / 8.0, math.nan, math.nan),
-                     WENDLAND_1D)
 
 KERNEL_NAMES = ("cubic_spline", "wendland_c2")
 
@@ -157,5 +131,5 @@ def get_kernel(name, dim):
     if name == "cubic_spline":
         return CUBIC_SPLINE
     if name == "wendland_c2":
-        return _WENDLAND_1 if dim == 1 else _WENDLAND_23
+        return _WENDLAND_23
     raise KeyError(name)

@@ -1,126 +1,289 @@
-"""Cell linked list and the cell-ordered copies the loops read.
+"""The neighbour list: unique pairs within r_c = 2h + skin, kept for as many steps as it stays valid.
 
-Cell coordinates are global: ``floor((x - x0) / cs)``, ``floor(y / cs)`` and
-``floor(z / cs)`` (``y`` including the periodic shift of halo copies), so a
-particle falls into the same cell whatever the number of ranks. Particles are
-copied into cell order (x fastest), by global id inside a cell. Loops that
-visit the cells around a particle in a fixed order therefore add up
-contributions in the same order on any rank count: results do not depend on
-P, bit for bit. Cell order also puts neighbours next to each other in memory,
-and makes the cells of one row along x a contiguous run.
+Cells. A global grid of cells of side at least r_c / M per direction (M =
+``CELLS_PER_CUTOFF``) tiles the periodic directions exactly (y always; x
+without walls; z in 3-D). A particle's integer cell coordinates are taken
+from its position in its owner's frame (wrapped into the box) plus a whole
+number of periods for a periodic copy, so every copy of a particle lies in
+the same cell on any rank count, bit for bit. Without walls in x the grid
+spans the wall particles' lattice columns; a particle beyond them is
+clamped into the edge cell, so a runaway particle cannot make the grid grow.
+
+Order. The local particles (owned, ghosts, images) are sorted by cell (z,
+y, x, lexicographic) and by global id inside a cell. The pair list holds
+every unique pair (a, b), a before b in that order, within r_c of each
+other, of which at least one member is an owned fluid particle, in that
+order: a particle's pairs therefore come in the order of its neighbours'
+places. That order is the same on any rank count, and the loops of
+:mod:`parsph.equations` add each particle's contributions in it, so results
+do not depend on the rank or thread count, bit for bit.
+
+Validity. The list built at step n holds every pair within 2h at step m > n
+if no two particles whose cells are at most 2M apart along every direction
+moved by more than the skin relative to each other since n. The test
+(:func:`block_spread`): the bounding box of the displacements of the
+particles in each block of (2M+1)^d cells, an empty cell counting as
+displacement 0, has a diagonal below the skin. Proof: a pair whose cells
+are at most 2M apart in every direction lies in the block centred between
+them, so its distance changed by less than the skin, and one that was
+farther than r_c apart came no closer than 2h. A pair whose cells are more
+than 2M apart along some direction was at least 2 r_c apart; a chain of
+blocks joins them, each adding less than one skin of relative displacement
+per 2M cells crossed, which is never enough to close the gap to 2h.
+Relative, not absolute, displacement is what counts: a plate that carries
+its neighbours along at V_w does not force a rebuild.
 """
+import math
+
 import numpy as np
 from numba import njit
 
+CELLS_PER_CUTOFF = 2  # M: cells of side r_c / 2; blocks of 5^d cells span 2.5 r_c
 
-class Workspace:
-    """Preallocated cell-ordered arrays, grown only when the particle count or the neighbour count grows.
 
-    The neighbour list has a fixed width per particle (``nbr_j[i, :nbr_n[i]]``),
-    so that each particle's list is written independently (threads).
-    """
+class Axis:
+    """The cells along one direction: ``n`` cells of side ``side`` from ``origin``; periodic or clamped."""
 
-    FIELDS_F = ("sx", "sy", "sz", "svx", "svy", "svz", "sm", "stheta", "spress")
-    FIELDS_I = ("order", "cell_of", "skind", "tmp")
-    MARGIN = 4  # list slots beyond the largest count seen
+    def __init__(self, periodic, length, origin, extent, cutoff):
+        m = CELLS_PER_CUTOFF
+        self.periodic = periodic
+        if periodic:
+            self.n = max(1, int(math.floor(m * length / cutoff * (1 + 1e-12))))
+            self.side = length / self.n
+            self.origin = 0.0
+            self.period = length
+        else:
+            self.side = cutoff / m
+            self.origin = origin
+            # the last cell holds the outermost lattice column: no empty cell at the edge
+            self.n = int(math.floor(extent / self.side)) + 1
+            self.period = 0.0
 
-    def __init__(self):
-        self.capacity = 0
-        self.width = 1  # the loops need one slot to write into; the first pass widens it
-        self.ensure(1)
 
-    def ensure(self, n):
-        if n > self.capacity:
-            cap = max(n, int(1.3 * self.capacity), 64)
-            for name in self.FIELDS_F:
-                setattr(self, name, np.zeros(cap))
-            for name in self.FIELDS_I:
-                setattr(self, name, np.zeros(cap, np.int64))
-            self.owned = np.zeros(cap, np.bool_)
-            self.sinv = np.zeros((cap, 2))
-            self.nbr_n = np.zeros(cap, np.int64)
-            self.capacity = cap
-            self._list(self.width)
+class Grid:
+    """The global cell grid of a run: one :class:`Axis` per direction (x, y, z; z = one cell in 2-D)."""
 
-    def ensure_width(self, count):
-        """Widen the neighbour list to hold ``count`` neighbours per particle (plus a margin)."""
-        if count > self.width:
-            self._list(count + self.MARGIN)
+    def __init__(self, cutoff, dim, walls, L, Ly, Lz, x_lo, x_hi):
+        self.cutoff = cutoff
+        self.dim = dim
+        self.m = CELLS_PER_CUTOFF
+        self.axes = [Axis(not walls, L, x_lo, x_hi - x_lo, cutoff), Axis(True, Ly, 0.0, Ly, cutoff),
+                     Axis(True, Lz, 0.0, Lz, cutoff) if dim == 3 else None]
+        if dim == 2:
+            z = Axis(False, 1.0, 0.0, 0.0, cutoff)
+            z.n, z.side = 1, 1.0
+            self.axes[2] = z
 
-    def _list(self, width):
-        self.width = width
-        self.nbr_j = np.zeros((self.capacity, width), np.int32)
-        self.nbr_f = np.zeros((self.capacity, width))
+    def params(self):
+        """(origin, side, n, periodic) per direction as arrays for the numba functions."""
+        a = self.axes
+        return (np.array([x.origin for x in a]), np.array([x.side for x in a]),
+                np.array([x.n for x in a], np.int64), np.array([int(x.periodic) for x in a], np.int64))
 
-    def pairs(self, n):
-        """Neighbour-list entries (i sees j) of the last density pass over n sorted places."""
-        return int(self.nbr_n[:n].sum())
+
+def grid_for(cfg, kernel):
+    """The cell grid of a run: cutoff 2h + skin; without walls x spans [0, L), with walls the lattice columns."""
+    cutoff = kernel.support * cfg.h + cfg.get("numerics.skin") * cfg.h
+    edge = (cfg.layers - 0.5) * cfg.dx  # the outermost wall particles' distance beyond the plates
+    x_lo, x_hi = (-edge, cfg.L + edge) if cfg.scene.walls else (0.0, cfg.L)
+    return Grid(cutoff, cfg.dim, cfg.scene.walls, cfg.L, cfg.Ly, cfg.Lz if cfg.dim == 3 else 0.0, x_lo, x_hi)
 
 
 @njit(cache=True)
-def sort_into_cells(pos, vel, mass, kind, gid, n, n_own, x0, cs,
-                    order, cell_of, tmp, sx, sy, sz, svx, svy, svz, sm, skind, owned):
-    """Sort particles 0..n-1 into cells and copy their fields in that order.
-
-    ``order[k]`` is the particle at sorted place k; ``cell_of[k]`` its cell
-    ``(cz * ncy + cy) * ncx + cx``. Returns ``(start, ncx, ncy, ncz, lox,
-    loy, loz)``: the particles of cell c are sorted places ``start[c] ..
-    start[c+1]-1``; cell (cx, cy, cz) spans x - x0 in [(cx + lox) cs, (cx +
-    lox + 1) cs), and likewise y and z from 0.
-    """
+def cell_coords(pos, start, stop, origin, side, ncell, periodic, out):
+    """Integer cell coordinates of particles start..stop-1 (positions in the owner's frame, wrapped)."""
     dim = pos.shape[1]
-    big = 1 << 60
-    lox = loy = loz = big
-    hix = hiy = hiz = -big
+    for i in range(start, stop):
+        for d in range(3):
+            if d >= dim:
+                out[i, d] = 0
+                continue
+            c = int(math.floor((pos[i, d] - origin[d]) / side[d]))
+            if c < 0:
+                c = 0
+            elif c >= ncell[d]:
+                c = ncell[d] - 1
+            out[i, d] = c
+
+
+@njit(cache=True)
+def local_cells(coords, n, lo, size, cell):
+    """Local cell ids ((cz - lo_z) size_y + cy - lo_y) size_x + cx - lo_x, clamped into the local box."""
     for i in range(n):
-        cx = int(np.floor((pos[i, 0] - x0) / cs))
-        cy = int(np.floor(pos[i, 1] / cs))
-        cz = int(np.floor(pos[i, 2] / cs)) if dim == 3 else 0
-        lox = min(lox, cx)
-        hix = max(hix, cx)
-        loy = min(loy, cy)
-        hiy = max(hiy, cy)
-        loz = min(loz, cz)
-        hiz = max(hiz, cz)
-    if n == 0:
-        lox = loy = loz = hix = hiy = hiz = 0
-    ncx = hix - lox + 1
-    ncy = hiy - loy + 1
-    ncz = hiz - loz + 1
-    start = np.zeros(ncx * ncy * ncz + 1, np.int64)
+        c = 0
+        for d in (2, 1, 0):
+            k = coords[i, d] - lo[d]
+            if k < 0:
+                k = 0
+            elif k >= size[d]:
+                k = size[d] - 1
+            c = c * size[d] + k
+        cell[i] = c
+
+
+@njit(cache=True)
+def sort_by_cell(cell, gid, n, ncells, order, start):
+    """Counting sort of particles 0..n-1 by cell, by gid inside a cell: ``order[a]`` is the a-th particle.
+
+    ``start[c] .. start[c+1]-1`` are the places of cell c.
+    """
+    start[:ncells + 1] = 0
     for i in range(n):
-        cx = int(np.floor((pos[i, 0] - x0) / cs)) - lox
-        cy = int(np.floor(pos[i, 1] / cs)) - loy
-        cz = (int(np.floor(pos[i, 2] / cs)) - loz) if dim == 3 else 0
-        c = (cz * ncy + cy) * ncx + cx
-        tmp[i] = c
-        start[c + 1] += 1
-    for c in range(ncx * ncy * ncz):
+        start[cell[i] + 1] += 1
+    for c in range(ncells):
         start[c + 1] += start[c]
-    fill = start[:-1].copy()
+    fill = start[:ncells].copy()
     for i in range(n):
-        c = tmp[i]
-        # insertion by gid keeps each cell sorted
+        c = cell[i]
         k = fill[c]
-        while k > start[c] and gid[order[k - 1]] > gid[i]:
+        while k > start[c] and gid[order[k - 1]] > gid[i]:  # insertion by gid: cells hold a few particles
             order[k] = order[k - 1]
             k -= 1
         order[k] = i
         fill[c] += 1
-    for k in range(n):
-        i = order[k]
-        cell_of[k] = tmp[i]
-        sx[k] = pos[i, 0]
-        sy[k] = pos[i, 1]
-        svx[k] = vel[i, 0]
-        svy[k] = vel[i, 1]
-        if dim == 3:
-            sz[k] = pos[i, 2]
-            svz[k] = vel[i, 2]
-        else:
-            sz[k] = 0.0
-            svz[k] = 0.0
-        sm[k] = mass[i]
-        skind[k] = kind[i]
-        owned[k] = i < n_own
-    return start, ncx, ncy, ncz, lox, loy, loz
+
+
+@njit(cache=True)
+def build_pairs(pos, need, order, start, cell, n, size, cutoff, pstart, pi, pj):
+    """Unique pairs within ``cutoff`` in sorted order (see the module docstring); returns their count.
+
+    The pairs of the particle at sorted place a (with the particles after it)
+    are ``pstart[a] .. pstart[a+1]-1``; ``pi``/``pj`` hold their members.
+    ``pi``/``pj`` must hold every pair; if they are too short, the count is
+    returned negative (minus the pairs found so far) and the caller grows them.
+    """
+    m = 2  # CELLS_PER_CUTOFF
+    dim = pos.shape[1]
+    cut2 = cutoff * cutoff
+    cap = pi.shape[0]
+    npairs = 0
+    nx, ny, nz = size[0], size[1], size[2]
+    for a in range(n):
+        pstart[a] = min(npairs, cap)
+        i = order[a]
+        c = cell[i]
+        cx = c % nx
+        cy = (c // nx) % ny
+        cz = c // (nx * ny)
+        xi = pos[i, 0]
+        yi = pos[i, 1]
+        zi = pos[i, 2] if dim == 3 else 0.0
+        for z in range(max(cz - m, 0), min(cz + m, nz - 1) + 1):
+            for y in range(max(cy - m, 0), min(cy + m, ny - 1) + 1):
+                row = (z * ny + y) * nx
+                lo = max(start[row + max(cx - m, 0)], a + 1)
+                hi = start[row + min(cx + m, nx - 1) + 1]
+                for b in range(lo, hi):
+                    j = order[b]
+                    if not (need[i] or need[j]):
+                        continue
+                    dx = xi - pos[j, 0]
+                    dy = yi - pos[j, 1]
+                    r2 = dx * dx + dy * dy
+                    if dim == 3:
+                        dz = zi - pos[j, 2]
+                        r2 += dz * dz
+                    if r2 < cut2:
+                        if npairs < cap:
+                            pi[npairs] = i
+                            pj[npairs] = j
+                        npairs += 1
+    pstart[n] = min(npairs, cap)
+    return npairs if npairs <= cap else -npairs
+
+
+@njit(cache=True)
+def build_entries(pi, pj, npairs, need, n, offset, entry):
+    """Per particle that needs sums, its pairs in ascending order: ``entry = 2 p + side`` (side 1: it is pj[p]).
+
+    For the threaded loops, which sum each particle's pair values in this
+    order (the same order in which the serial loops add them).
+    """
+    offset[:n + 1] = 0
+    for p in range(npairs):
+        if need[pi[p]]:
+            offset[pi[p] + 1] += 1
+        if need[pj[p]]:
+            offset[pj[p] + 1] += 1
+    for i in range(n):
+        offset[i + 1] += offset[i]
+    fill = offset[:n].copy()
+    for p in range(npairs):
+        i = pi[p]
+        j = pj[p]
+        if need[i]:
+            entry[fill[i]] = 2 * p
+            fill[i] += 1
+        if need[j]:
+            entry[fill[j]] = 2 * p + 1
+            fill[j] += 1
+
+
+@njit(cache=True)
+def block_spread(disp, n, cell, size, centre_lo, centre_hi, box, work):
+    """The largest diagonal of the displacement box of any block of (2M+1)^d cells centred in the given range.
+
+    ``box`` (ncells, 6) and ``work`` (ncells, 6) are scratch space. Empty
+    cells count as displacement 0. Blocks are clipped at the local grid's
+    edges; centres run over ``centre_lo[d] .. centre_hi[d]`` (local cells
+    whose (2M+1)-wide neighbourhood is complete on this rank).
+    """
+    m = 2  # CELLS_PER_CUTOFF
+    dim = disp.shape[1]
+    nx, ny, nz = size[0], size[1], size[2]
+    ncells = nx * ny * nz
+    big = np.inf
+    for c in range(ncells):
+        for d in range(3):
+            box[c, d] = big
+            box[c, 3 + d] = -big
+    for i in range(n):
+        c = cell[i]
+        for d in range(dim):
+            v = disp[i, d]
+            if v < box[c, d]:
+                box[c, d] = v
+            if v > box[c, 3 + d]:
+                box[c, 3 + d] = v
+    for c in range(ncells):
+        if box[c, 0] > box[c, 3]:  # empty cell: displacement 0
+            for d in range(3):
+                box[c, d] = 0.0
+                box[c, 3 + d] = 0.0
+        for d in range(dim, 3):
+            box[c, d] = 0.0
+            box[c, 3 + d] = 0.0
+    # separable window min/max: along x into work, along y into box, along z into work
+    strides = (1, nx, nx * ny)
+    src = box
+    dst = work
+    for axis in range(3):
+        length = size[axis]
+        stride = strides[axis]
+        if length == 1:
+            continue
+        for c in range(ncells):
+            k = (c // stride) % length
+            lo = max(k - m, 0) - k
+            hi = min(k + m, length - 1) - k
+            for q in range(3):
+                mn = src[c + lo * stride, q]
+                mx = src[c + lo * stride, 3 + q]
+                for s in range(lo + 1, hi + 1):
+                    mn = min(mn, src[c + s * stride, q])
+                    mx = max(mx, src[c + s * stride, 3 + q])
+                dst[c, q] = mn
+                dst[c, 3 + q] = mx
+        src, dst = dst, src
+    worst = 0.0
+    for z in range(centre_lo[2], centre_hi[2] + 1):
+        for y in range(centre_lo[1], centre_hi[1] + 1):
+            for x in range(centre_lo[0], centre_hi[0] + 1):
+                c = (z * ny + y) * nx + x
+                d2 = 0.0
+                for q in range(3):
+                    e = src[c, 3 + q] - src[c, q]
+                    d2 += e * e
+                if not d2 <= worst * worst:  # NaN displacements count as the worst
+                    worst = math.sqrt(d2) if d2 == d2 else np.inf
+    return worst

@@ -102,10 +102,11 @@ class Output:
             self.written.sort(key=lambda w: w[1])
 
     def __call__(self, sim, snapshot=None):
-        """Write the next output: the profile, and the particles if snapshots are on."""
+        """Write the next output from ``sim`` (t, step, dt, profile, fields): the profile, and the particles
+        if snapshots are on."""
         cfg, comm = self.cfg, self.comm
         snapshot = cfg.values["output"]["snapshots"] if snapshot is None else snapshot
-        prof = sim.profile()
+        prof = sim.profile
         emax, erms = prof["err"]
         name = output_name(self.stem, self.index)
         final = os.path.join(self.dir, name)
@@ -151,15 +152,16 @@ class Output:
         return final
 
     def _particles(self, sim, f):
-        ps, comm, N = sim.ps, self.comm, self.N
-        n = ps.n_own
+        comm, N = self.comm, self.N
+        src = sim.fields
+        n = len(src["id"])
         fields = {
-            "id": (ps.gid[:n], "i8", "1"),
-            "kind": (ps.kind[:n].astype(np.int8), "i1", "1"),
-            "mass": (ps.mass[:n], "f8", MASS_UNITS[self.cfg.dim]),
-            "position": (ps.pos[:n], "f8", "m"),
-            "velocity": (ps.vel[:n], "f8", "m/s"),
-            "theta": (ps.theta[:n], "f8", "1"),
+            "id": (src["id"], "i8", "1"),
+            "kind": (np.asarray(src["kind"]).astype(np.int8), "i1", "1"),
+            "mass": (src["mass"], "f8", MASS_UNITS[self.cfg.dim]),
+            "position": (src["position"], "f8", "m"),
+            "velocity": (src["velocity"], "f8", "m/s"),
+            "theta": (src["theta"], "f8", "1"),
         }
         if self.parallel:
             off = np.zeros(1, np.int64)

@@ -1,12 +1,24 @@
 """Particle storage: flat numpy arrays, owned particles first, then halo copies.
 
 Indices ``0 .. n_own-1`` are the particles this rank owns; ``n_own .. n-1``
-are halo copies received from the neighbouring slabs for the current step.
-Arrays have spare capacity so that halo exchange and migration rarely
-allocate.
+are copies of other ranks' particles (ghosts) and periodic images, made at
+the last neighbour-list build and refreshed every step. Arrays have spare
+capacity so that rebuilds rarely allocate.
+
+Every field is a per-particle array of float64 (or int64) with an optional
+trailing shape. Whole particles travel between ranks only at a rebuild
+(migration), as float64 rows holding every field (:meth:`Particles.rows`),
+so a field added with :meth:`Particles.add_field` (the midpoint integrator's
+saved state, say) migrates without further code.
+
+Fields:
+    gid, kind, mass      identity, FLUID/WALL/MOVING_WALL, mass [kg/m in 2-D]
+    pos, vel, acc        position (not wrapped between rebuilds), velocity, acceleration
+    rho, theta           summation density Eq. (3), volume fraction
+    disp                 displacement since the last rebuild (the list's validity test)
+    jump                 length of the last step's displacement (run-time check 5)
 """
 import numpy as np
-from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 
@@ -16,33 +28,37 @@ class Particles:
         self.dim = dim
         self.n_own = 0
         self.n = 0
-        self._alloc(max(16, capacity))
+        self.capacity = 0
+        self._spec = {}  # name -> (dtype, trailing shape)
+        for name, dtype, vector in (("gid", np.int64, False), ("kind", np.int64, False), ("mass", float, False),
+                                    ("pos", float, True), ("vel", float, True), ("acc", float, True),
+                                    ("rho", float, False), ("theta", float, False), ("disp", float, True),
+                                    ("jump", float, False)):
+            self._spec[name] = (dtype, (dim,) if vector else ())
+        self._alloc(max(16, capacity), keep=0)
 
-    def _alloc(self, cap, old=None, keep=0):
-        dim = self.dim
-        new = {
-            "gid": np.zeros(cap, np.int64),
-            "kind": np.zeros(cap, np.int64),
-            "mass": np.zeros(cap),
-            "pos": np.zeros((cap, dim)),
-            "vel": np.zeros((cap, dim)),
-            "acc": np.zeros((cap, dim)),
-            "rho": np.zeros(cap),
-            "theta": np.zeros(cap),
-        }
-        if old is not None:
-            for name, arr in new.items():
-                arr[:keep] = old[name][:keep]
-        for name, arr in new.items():
-            setattr(self, name, arr)
+    def add_field(self, name, vector=True):
+        """A further float64 field (``(n, dim)`` if ``vector``) that migrates with the particles."""
+        if name not in self._spec:
+            self._spec[name] = (float, (self.dim,) if vector else ())
+            setattr(self, name, np.zeros((self.capacity,) + self._spec[name][1]))
+
+    @property
+    def fields(self):
+        return tuple(self._spec)
+
+    def _alloc(self, cap, keep):
+        for name, (dtype, shape) in self._spec.items():
+            new = np.zeros((cap,) + shape, dtype)
+            if keep:
+                new[:keep] = getattr(self, name)[:keep]
+            setattr(self, name, new)
         self.capacity = cap
 
     def ensure(self, n, keep=None):
-        """Grow every array to hold at least n particles, keeping the first ``keep``."""
+        """Grow every array to hold at least n particles, keeping the first ``keep`` (default n)."""
         if n > self.capacity:
-            old = {name: getattr(self, name) for name in
-                   ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")}
-            self._alloc(max(n, int(1.5 * self.capacity)), old, self.n if keep is None else keep)
+            self._alloc(max(n, int(1.5 * self.capacity)), self.n if keep is None else keep)
 
     @classmethod
     def from_arrays(cls, gid, kind, mass, pos, vel):
@@ -52,121 +68,36 @@ class Particles:
         p.n_own = p.n = n
         return p
 
-    # ---- packing of whole particles into float64 rows (halo, migration) ----
+    # ---- whole particles as float64 rows (migration) ----------------------------
     @property
     def row_width(self):
-        return 4 + 2 * self.dim
+        return sum(int(np.prod(shape, dtype=np.int64)) for _, shape in self._spec.values())
 
-    ycol = 4  # column of the y coordinate in a packed row
+    def rows(self, idx):
+        """Particles ``idx`` as float64 rows holding every field (ids are exact below 2^53)."""
+        k = len(idx)
+        cols = [getattr(self, name)[idx].reshape(k, int(np.prod(shape, dtype=np.int64))).astype(float)
+                for name, (_, shape) in self._spec.items()]
+        return np.concatenate(cols, axis=1)
 
-    def pack(self, idx, k, out):
-        """Write particles ``idx[:k]`` as rows [gid, kind, mass, pos, vel, rho] into ``out``.
+    def put_rows(self, rows, start):
+        """Store ``rows`` (from :meth:`rows`) as particles ``start .. start+len(rows)-1``."""
+        c = 0
+        k = len(rows)
+        for name, (dtype, shape) in self._spec.items():
+            w = int(np.prod(shape, dtype=np.int64))
+            getattr(self, name)[start:start + k] = rows[:, c:c + w].reshape((k,) + shape).astype(dtype)
+            c += w
 
-        rho travels because wall particles hold theirs (fluid densities are
-        recomputed every step).
-        """
-        _pack(self.gid, self.kind, self.mass, self.pos, self.vel, self.rho, idx, k, out)
+    def remove_owned(self, gone):
+        """Drop the owned particles ``gone`` (a boolean mask over 0..n_own-1), keeping the others' order."""
+        keep = np.flatnonzero(~gone)
+        self.reorder_owned(keep)
 
-    def unpack(self, rows, start):
-        """Store ``rows`` as particles ``start .. start+len(rows)-1``."""
-        _unpack(rows, start, self.gid, self.kind, self.mass, self.pos, self.vel, self.rho)
-
-    def keep_owned(self, gone, k):
-        """Drop the owned particles ``gone[:k]`` (ascending indices), keeping the others' order."""
-        self.n_own = self.n = _compact(gone, k, self.n_own, self.gid, self.kind, self.mass, self.pos, self.vel,
-                                       self.rho)
-
-
-@njit(cache=True)
-def _pack(gid, kind, mass, pos, vel, rho, idx, k, out):
-    d = pos.shape[1]
-    for r in range(k):
-        i = idx[r]
-        out[r, 0] = gid[i]
-        out[r, 1] = kind[i]
-        out[r, 2] = mass[i]
-        for c in range(d):
-            out[r, 3 + c] = pos[i, c]
-            out[r, 3 + d + c] = vel[i, c]
-        out[r, 3 + 2 * d] = rho[i]
-
-
-@njit(cache=True)
-def _unpack(rows, start, gid, kind, mass, pos, vel, rho):
-    d = pos.shape[1]
-    for r in range(rows.shape[0]):
-        i = start + r
-        gid[i] = np.int64(rows[r, 0])
-        kind[i] = np.int64(rows[r, 1])
-        mass[i] = rows[r, 2]
-        for c in range(d):
-            pos[i, c] = rows[r, 3 + c]
-            vel[i, c] = rows[r, 3 + d + c]
-        rho[i] = rows[r, 3 + 2 * d]
-
-
-@njit(cache=True, inline="always")
-def _copy(i, j, gid, kind, mass, pos, vel, rho):
-    """Particle i's fields into place j."""
-    gid[j] = gid[i]
-    kind[j] = kind[i]
-    mass[j] = mass[i]
-    rho[j] = rho[i]
-    for c in range(pos.shape[1]):
-        pos[j, c] = pos[i, c]
-        vel[j, c] = vel[i, c]
-
-
-@njit(cache=True)
-def _compact(gone, k, n, gid, kind, mass, pos, vel, rho):
-    """Remove indices gone[:k] (ascending) from 0..n-1 in place; return the new count."""
-    w = 0
-    g = 0
-    for i in range(n):
-        if g < k and gone[g] == i:
-            g += 1
-            continue
-        if w != i:
-            _copy(i, w, gid, kind, mass, pos, vel, rho)
-        w += 1
-    return w
-
-
-@njit(cache=True)
-def add_images(gid, kind, mass, pos, vel, rho, n, axis, period, width, src):
-    """Append periodic copies of particles 0..n-1 lying within ``width`` of either end of [0, period).
-
-    Copies are shifted by +period (near 0) or -period (near the top); ``src``
-    receives each copy's original index. Returns the number of copies (the
-    arrays must have room for them: see :func:`count_images`).
-    """
-    k = 0
-    for i in range(n):
-        x = pos[i, axis]
-        for shift in (period, -period):
-            if (shift > 0.0 and x < width) or (shift < 0.0 and x >= period - width):
-                j = n + k
-                _copy(i, j, gid, kind, mass, pos, vel, rho)
-                pos[j, axis] = x + shift
-                src[k] = i
-                k += 1
-    return k
-
-
-@njit(cache=True)
-def count_images(pos, n, axis, period, width):
-    k = 0
-    for i in range(n):
-        x = pos[i, axis]
-        if x < width:
-            k += 1
-        if x >= period - width:
-            k += 1
-    return k
-
-
-@njit(cache=True)
-def copy_from_sources(arr, start, src, k):
-    """arr[start + m] = arr[src[m]] for m < k (refresh periodic copies)."""
-    for m in range(k):
-        arr[start + m] = arr[src[m]]
+    def reorder_owned(self, order):
+        """Owned particles become ``order`` (indices into 0..n_own-1, each at most once); halo copies are dropped."""
+        k = len(order)
+        for name in self._spec:
+            arr = getattr(self, name)
+            arr[:k] = arr[order]
+        self.n_own = self.n = k

@@ -11,8 +11,12 @@ from .particles import FLUID
 
 
 @njit(cache=True)
-def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, sums):
-    """Sums of v_y (row 0), theta (row 1) and counts (row 2) of owned fluid particles per x bin."""
+def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, period, sums):
+    """Sums of v_y (row 0), theta (row 1) and counts (row 2) of owned fluid particles per x bin.
+
+    ``period``: the length of x where it is periodic (positions are wrapped
+    only at rebuilds of the neighbour list), 0 between walls.
+    """
     for b in range(nbins):
         sums[0, b] = 0.0
         sums[1, b] = 0.0
@@ -20,7 +24,10 @@ def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, sums):
     for i in range(n_own):
         if kind[i] != FLUID:
             continue
-        b = int(pos[i, 0] / dx)
+        x = pos[i, 0]
+        if period > 0.0:
+            x = x % period
+        b = int(x / dx)
         if b < 0:
             b = 0
         elif b >= nbins:

@@ -76,7 +76,7 @@ def warm_up(run):
     small = dict(c, Nx=12, t_end=1e-4, perturb=None)
     small["dt"] = "auto"
     sim = Simulation(build_config(small), MPI.COMM_SELF)
-    sim.run(output=lambda s, snapshot=None: s.profile())  # noqa: the profile's numba function too
+    sim.run(output=lambda s, snapshot=None: s.profile)  # noqa: the profile's numba function too
 
 
 def perturb(sim, cfg, eps):
@@ -105,7 +105,7 @@ def main(argv):
 
     def output(s, snapshot=None):
         wall, cpu = time.perf_counter() - t_wall0, time.process_time() - t_cpu0
-        prof = s.profile()
+        prof = s.profile
         x, vy, exact = prof["x"], prof["vy"], prof["vy_exact"]
         emax, erms = prof["err"]
         e = np.abs(vy - exact) / abs(cfg.V_w)

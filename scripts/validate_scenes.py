@@ -64,7 +64,7 @@ def in_process(text, over):
     cfg = config.loads(text, over)
     sim = Simulation(cfg, MPI.COMM_SELF)
     last = {}
-    sim.run(output=lambda s, snapshot=None: last.update(s.profile()))
+    sim.run(output=lambda s, snapshot=None: last.update(s.profile))
     return cfg, sim, last
 
 

@@ -79,7 +79,7 @@ def max_error(Nx, kernel, h_over_dx, beta_max):
     cfg = config.build(raw, config.dumps(raw))
     errs = []
     sim = Simulation(cfg, MPI.COMM_SELF)
-    sim.run(output=lambda s, snapshot=None: errs.append(s.profile()["err"][0]))
+    sim.run(output=lambda s, snapshot=None: errs.append(s.profile["err"][0]))
     assert len(errs) == 1 and sim.t == pytest.approx(T, rel=1e-12)
     return errs[0]
 

@@ -33,7 +33,7 @@ def run_couette(Nx, **numerics):
 
     def output(sim, snapshot=None):  # called once per output time, in time order
         steps.append(sim.step)
-        p = sim.profile()
+        p = sim.profile
         profiles[len(profiles)] = (sim.t,) + tuple(np.copy(p[key]) for key in ("x", "vy", "count", "vy_exact")) \
             + (p["err"],)
 

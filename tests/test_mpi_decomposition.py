@@ -1,4 +1,4 @@
-"""The slab decomposition as pure functions, and its refusal of slabs thinner than 2h.
+"""The slab decomposition as pure functions, and its refusal of slabs too thin for their ghost rows.
 
 Serial: run with plain pytest. The one test that needs several ranks launches
 ``mpirun`` itself and is skipped inside an mpirun job (nested mpirun fails).
@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph.decomposition import DecompositionError, SlabRing, max_ranks, slab_bounds
+from parsph.decomposition import DecompositionError, SlabRing, fits, max_ranks, slab_bounds
+from parsph.neighbours import CELLS_PER_CUTOFF, Grid
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
 
 H = 2.5e-4          # the paper's smoothing length [m]
-SUPPORT = 2 * H     # cubic spline support = halo width = smallest slab [m]
 
 
 def fake_comm(size, rank=0):
@@ -57,30 +57,53 @@ def test_slab_bounds_partition_every_y(P):
     assert owner[-2] == P - 1                           # the largest y below Ly belongs to the last rank
 
 
-# ---- max_ranks ---------------------------------------------------------------------
-@pytest.mark.parametrize("Ly, w, expect", [
-    (1.0, 0.25, 4), (1.0, 0.3, 3), (0.01, SUPPORT, 20), (0.0016, SUPPORT, 3), (0.0015, SUPPORT, 3),
-    (0.0012, SUPPORT, 2), (0.3, 0.1, 3),   # 0.3/0.1 = 2.9999999999999996 in floats: still 3
-    (0.0006, SUPPORT, 1), (1e-9, 1.0, 1),   # never below 1
-])
-def test_max_ranks(Ly, w, expect):
-    assert max_ranks(Ly, w) == expect
+# ---- slab widths -------------------------------------------------------------------
+CUT = 2.4 * H       # neighbour-list cutoff 2h + skin (skin 0.4 h, the default)
+M = CELLS_PER_CUTOFF
 
 
-@pytest.mark.parametrize("Ly, w", [(Ly, w) for w in (SUPPORT, 0.1, 0.07)
-                                   for Ly in (0.0005, 0.0006, 0.0012, 0.0015, 0.0016, 0.01, 0.3, 0.7, 1.0)
-                                   if Ly >= w])
-def test_max_ranks_agrees_with_slabring(Ly, w):
-    """max_ranks(Ly, w) is accepted by SlabRing and one more rank is refused."""
-    P = max_ranks(Ly, w)
-    SlabRing(fake_comm(P), Ly, w)
-    with pytest.raises(DecompositionError):
-        SlabRing(fake_comm(P + 1), Ly, w)
+def grid(Ly, cutoff=CUT):
+    """A Couette grid (walls in x) of the given Ly and cutoff."""
+    return Grid(cutoff, 2, True, 0.01, Ly, 0.0, -2.5e-4, 0.01 + 2.5e-4)
+
+
+@pytest.mark.parametrize("Ly", [0.0016, 0.0021, 0.005, 0.01, 0.0137, 1.0])
+def test_slab_width_rule_between_its_bounds(Ly):
+    """Slabs fit their ghost rows (M rows of side >= cutoff/M beyond their own) when at least (M + 2) rows
+    wide, never when thinner than M rows: the rule lies between these two bounds for every P."""
+    g = grid(Ly)
+    side, ny = g.axes[1].side, g.axes[1].n
+    assert side >= CUT / M * (1 - 1e-12) and abs(side * ny - Ly) < 1e-12 * Ly   # rows tile Ly, side >= cutoff/M
+    for P in range(1, ny + 1):
+        width = Ly / P
+        if width >= (M + 2) * side * (1 + 1e-12):
+            assert fits(Ly, P, side, ny, M), P
+        if width < M * side * (1 - 1e-12):
+            assert not fits(Ly, P, side, ny, M), P
+
+
+@pytest.mark.parametrize("Ly", [0.0006, 0.0012, 0.0015, 0.0016, 0.0024, 0.01, 0.3])
+def test_max_ranks_agrees_with_slabring(Ly):
+    """max_ranks is accepted by SlabRing and one more rank is refused, with a message naming what works."""
+    P = max_ranks(Ly, CUT, M)
+    SlabRing(fake_comm(P), Ly, grid(Ly))
+    with pytest.raises(DecompositionError) as e:
+        SlabRing(fake_comm(P + 1), Ly, grid(Ly))
+    msg = str(e.value)
+    assert f"at most {P} ranks" in msg
+    least = float(msg.split("Ly >= ")[1].split(" m")[0])
+    SlabRing(fake_comm(P + 1), least, grid(least))      # the suggested length works
+
+
+def test_paper_case_rank_limit():
+    """The paper's box (Ly = 0.01 m, h = 2.5e-4 m, skin 0.4 h): slabs of at least 1.5 cutoffs, so at most
+    0.01 / (1.5 * 6e-4) = 11 ranks (the ghost rows are M = 2 rows of 6e-4 m / 2 beyond a slab's own)."""
+    assert max_ranks(0.01, CUT, M) == 11
 
 
 # ---- SlabRing ----------------------------------------------------------------------
 def test_slabring_one_rank_comm_self():
-    ring = SlabRing(MPI.COMM_SELF, 0.01, SUPPORT)
+    ring = SlabRing(MPI.COMM_SELF, 0.01, grid(0.01))
     assert ring.size == 1 and ring.rank == 0
     assert ring.left == 0 and ring.right == 0            # its own neighbour across y = Ly
     assert ring.lo == 0.0 and ring.hi == 0.01
@@ -88,52 +111,30 @@ def test_slabring_one_rank_comm_self():
 
 @pytest.mark.parametrize("P", [2, 3, 5])
 def test_slabring_ring_neighbours(P):
-    Ly = P * 0.001
+    Ly = P * 0.002
     b = slab_bounds(Ly, P)
     for r in range(P):
-        ring = SlabRing(fake_comm(P, r), Ly, SUPPORT)
+        ring = SlabRing(fake_comm(P, r), Ly, grid(Ly))
         assert ring.left == (r - 1) % P and ring.right == (r + 1) % P
         assert ring.lo == b[r] and ring.hi == b[r + 1]
 
 
-def test_slabring_accepts_exactly_2h():
-    SlabRing(MPI.COMM_SELF, SUPPORT, SUPPORT)
-    SlabRing(fake_comm(3), 3 * SUPPORT, SUPPORT)        # 0.0015 / 3 may round below 5e-4
-    SlabRing(fake_comm(20), 0.01, SUPPORT)
-
-
 def test_slabring_refuses_one_thin_slab_comm_self():
     with pytest.raises(DecompositionError) as e:
-        SlabRing(MPI.COMM_SELF, 0.0004, SUPPORT)
-    msg = str(e.value)
-    assert "Ly >= 0.0005 m" in msg                       # the smallest Ly that works
-    assert "0.0005" in msg and "0.0004" in msg
-
-
-@pytest.mark.parametrize("P, Ly, most, least_Ly", [
-    (3, 0.0012, 2, "0.0015"), (3, 0.0006, 1, "0.0015"), (21, 0.01, 20, "0.0105"), (4, 0.0016, 3, "0.002"),
-])
-def test_slabring_refusal_message_names_what_works(P, Ly, most, least_Ly):
-    with pytest.raises(DecompositionError) as e:
-        SlabRing(fake_comm(P), Ly, SUPPORT)
-    msg = str(e.value)
-    assert f"at most {most} ranks" in msg                # the largest P that works
-    assert f"Ly >= {least_Ly} m" in msg                  # the smallest Ly that works
-    # and both suggestions really work
-    SlabRing(fake_comm(most), Ly, SUPPORT)
-    SlabRing(fake_comm(P), float(least_Ly), SUPPORT)
+        SlabRing(MPI.COMM_SELF, 0.0004, grid(0.0004))
+    assert "0.0004" in str(e.value) and "Ly >= " in str(e.value)
 
 
 # ---- refusal through the command line, under mpirun ---------------------------------
 @pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 def test_cli_refuses_thin_slabs_under_mpirun(tmp_path):
-    """3 ranks on Ly = 0.0006 m (slabs 2e-4 m < 2h = 5e-4 m): exit 2, one message naming a fix."""
+    """3 ranks on Ly = 0.0006 m (slabs of 2e-4 m, thinner than their ghost rows): exit 2, one message naming a fix."""
     r = launch.run(launch.mpirun_cmd(3, *launch.parsph_cmd(
         "run", launch.PAPER, "--set", "domain.Ly=0.0006", "--out", tmp_path / "out", "--force")), timeout=90)
     assert r.returncode == 2, r
     assert launch.count_lines(r.stderr, "parsph: error") == 1, r
     line = next(ln for ln in r.stderr.splitlines() if "parsph: error" in ln)
-    assert "at most 1 ranks" in line and "Ly >= 0.0015 m" in line, r
+    assert "at most 1 ranks" in line and "Ly >= 0.0024 m" in line, r
     assert "Traceback" not in r.output, r
     # nothing written: no output file, complete or partial
     out = tmp_path / "out"

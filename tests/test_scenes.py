@@ -37,7 +37,7 @@ def run(scene="couette", dim=2, theta0=0.35, nx=50, t_end=0.01, extra=()):
     cfg = config.loads(BASE.format(scene=scene, dim=dim, theta0=theta0, nx=nx, t_end=t_end), list(extra))
     sim = Simulation(cfg, MPI.COMM_SELF)
     out = {}
-    sim.run(output=lambda s, snapshot=None: out.update(s.profile()))
+    sim.run(output=lambda s, snapshot=None: out.update(s.profile))
     return cfg, sim, out
 
 
