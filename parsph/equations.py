@@ -64,6 +64,7 @@ def density_serial(order, pstart, pj, n, pos, mass, kid, inv_h, norm, w0, three_
     neighbours). Its sum starts with its own term, gets the pairs of earlier
     particles as they come, then its own pairs: the pair order.
     """
+    support2 = 4.0 / (inv_h * inv_h)
     for k in range(n):
         rho_sum[k] = mass[k] * w0
     for a in range(n):
@@ -85,6 +86,9 @@ def density_serial(order, pstart, pj, n, pos, mass, kid, inv_h, norm, w0, three_
             if len(three_d):
                 dz = zi - pos[j, 2]
                 r2 += dz * dz
+            if r2 >= support2:  # beyond 2h (in the skin): W and dW/dr are exactly zero
+                fp[p] = 0.0
+                continue
             w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
             fp[p] = f
             s += mass[j] * w
@@ -96,6 +100,7 @@ def density_serial(order, pstart, pj, n, pos, mass, kid, inv_h, norm, w0, three_
 def density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp,
                      wp, need, offset, entry):
     """As :func:`density_serial` for the particles that ``need`` sums, with threads: pairs, then a gather."""
+    support2 = 4.0 / (inv_h * inv_h)
     for p in prange(npairs):
         i = pi[p]
         j = pj[p]
@@ -105,14 +110,20 @@ def density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, no
         if len(three_d):
             dz = pos[i, 2] - pos[j, 2]
             r2 += dz * dz
-        w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
-        wp[p] = w
-        fp[p] = f
+        if r2 >= support2:
+            wp[p] = 0.0
+            fp[p] = 0.0
+        else:
+            w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
+            wp[p] = w
+            fp[p] = f
     for k in prange(n):
         s = mass[k] * w0
         if need[k]:
             for e in range(offset[k], offset[k + 1]):
                 p = entry[e] >> 1
+                if fp[p] == 0.0:  # beyond 2h: skipped as the serial loop skips it
+                    continue
                 other = pi[p] if entry[e] & 1 else pj[p]
                 s += mass[other] * wp[p]
         rho_sum[k] = s
@@ -208,8 +219,10 @@ def momentum_serial(order, pstart, pj, n, fp, pos, mass, kind, fields, need, n_o
         ay = acc[i, 1]
         az = acc[i, 2] if len(three_d) else 0.0
         for p in range(lo, hi):
-            j = pj[p]
             f = fp[p]
+            if f == 0.0:  # beyond 2h: the pair adds nothing
+                continue
+            j = pj[p]
             th_j = fields[j, 3]
             P = 0.0
             if len(pressure):
@@ -305,6 +318,8 @@ def momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fie
         if need[k]:
             for e in range(offset[k], offset[k + 1]):
                 p = entry[e] >> 1
+                if fp[p] == 0.0:  # beyond 2h: skipped as the serial loop skips it
+                    continue
                 i = pi[p]
                 j = pj[p]
                 o = i if entry[e] & 1 else j

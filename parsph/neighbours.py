@@ -223,67 +223,73 @@ def build_entries(pi, pj, npairs, need, n, offset, entry):
 def block_spread(disp, n, cell, size, centre_lo, centre_hi, box, work):
     """The largest diagonal of the displacement box of any block of (2M+1)^d cells centred in the given range.
 
-    ``box`` (ncells, 6) and ``work`` (ncells, 6) are scratch space. Empty
-    cells count as displacement 0. Blocks are clipped at the local grid's
-    edges; centres run over ``centre_lo[d] .. centre_hi[d]`` (local cells
-    whose (2M+1)-wide neighbourhood is complete on this rank).
+    ``box`` and ``work`` ((ncells, 6)) are scratch space: columns 0..dim-1
+    hold the minima, 3..3+dim-1 the maxima. Empty cells count as
+    displacement 0. Blocks are clipped at the local grid's edges; centres
+    run over ``centre_lo[d] .. centre_hi[d]`` (local cells whose
+    (2M+1)-wide neighbourhood is complete on this rank). A non-finite
+    displacement makes the result infinite.
     """
     m = 2  # CELLS_PER_CUTOFF
     dim = disp.shape[1]
     nx, ny, nz = size[0], size[1], size[2]
     ncells = nx * ny * nz
-    big = np.inf
     for c in range(ncells):
-        for d in range(3):
-            box[c, d] = big
-            box[c, 3 + d] = -big
+        for q in range(dim):
+            box[c, q] = np.inf
+            box[c, 3 + q] = -np.inf
     for i in range(n):
         c = cell[i]
-        for d in range(dim):
-            v = disp[i, d]
-            if v < box[c, d]:
-                box[c, d] = v
-            if v > box[c, 3 + d]:
-                box[c, 3 + d] = v
+        for q in range(dim):
+            v = disp[i, q]
+            if v < box[c, q]:
+                box[c, q] = v
+            if v > box[c, 3 + q]:
+                box[c, 3 + q] = v
     for c in range(ncells):
         if box[c, 0] > box[c, 3]:  # empty cell: displacement 0
-            for d in range(3):
-                box[c, d] = 0.0
-                box[c, 3 + d] = 0.0
-        for d in range(dim, 3):
-            box[c, d] = 0.0
-            box[c, 3 + d] = 0.0
-    # separable window min/max: along x into work, along y into box, along z into work
-    strides = (1, nx, nx * ny)
+            for q in range(dim):
+                box[c, q] = 0.0
+                box[c, 3 + q] = 0.0
+    # separable window min/max along x, y, z in turn (src -> dst)
     src = box
     dst = work
+    stride = 1
     for axis in range(3):
         length = size[axis]
-        stride = strides[axis]
-        if length == 1:
-            continue
-        for c in range(ncells):
-            k = (c // stride) % length
-            lo = max(k - m, 0) - k
-            hi = min(k + m, length - 1) - k
-            for q in range(3):
-                mn = src[c + lo * stride, q]
-                mx = src[c + lo * stride, 3 + q]
-                for s in range(lo + 1, hi + 1):
-                    mn = min(mn, src[c + s * stride, q])
-                    mx = max(mx, src[c + s * stride, 3 + q])
-                dst[c, q] = mn
-                dst[c, 3 + q] = mx
-        src, dst = dst, src
-    worst = 0.0
+        if length > 1:
+            outer = ncells // (stride * length)
+            for o in range(outer):
+                for k in range(length):
+                    base = o * stride * length + k * stride
+                    lo = max(k - m, 0) - k
+                    hi = min(k + m, length - 1) - k
+                    for t in range(stride):
+                        c = base + t
+                        for q in range(dim):
+                            mn = src[c + lo * stride, q]
+                            mx = src[c + lo * stride, 3 + q]
+                            for e in range(lo + 1, hi + 1):
+                                v = src[c + e * stride, q]
+                                if v < mn:
+                                    mn = v
+                                v = src[c + e * stride, 3 + q]
+                                if v > mx:
+                                    mx = v
+                            dst[c, q] = mn
+                            dst[c, 3 + q] = mx
+            src, dst = dst, src
+        stride *= length
+    worst2 = 0.0
     for z in range(centre_lo[2], centre_hi[2] + 1):
         for y in range(centre_lo[1], centre_hi[1] + 1):
+            row = (z * ny + y) * nx
             for x in range(centre_lo[0], centre_hi[0] + 1):
-                c = (z * ny + y) * nx + x
+                c = row + x
                 d2 = 0.0
-                for q in range(3):
+                for q in range(dim):
                     e = src[c, 3 + q] - src[c, q]
                     d2 += e * e
-                if not d2 <= worst * worst:  # NaN displacements count as the worst
-                    worst = math.sqrt(d2) if d2 == d2 else np.inf
-    return worst
+                if not d2 <= worst2:  # also NaN: the worst
+                    worst2 = d2 if d2 == d2 else np.inf
+    return math.sqrt(worst2)

@@ -9,7 +9,8 @@ from parsph import kernels
 from parsph.kernels import get_kernel
 
 H = 2.5e-4  # the paper's h [m]; a non-unit h exercises the h^-d scaling
-KERNELS = [(name, dim) for name in ("cubic_spline", "wendland_c2") for dim in (1, 2, 3)]
+# the cubic spline of Eq. (4) has constants for 1-, 2- and 3-D; Wendland C2 is used in 2-D and 3-D only
+KERNELS = [("cubic_spline", 1)] + [(name, dim) for name in ("cubic_spline", "wendland_c2") for dim in (2, 3)]
 IDS = [f"{n}-{d}d" for n, d in KERNELS]
 
 
@@ -129,11 +130,10 @@ def test_cubic_spline_eq4_values(dim, alpha):
 
 
 @pytest.mark.parametrize("dim,alpha,w_h,dw_h", [
-    (1, 5 / (8 * H), 5 / 16, -3 / 4),                    # (1 - q/2)^3 (1.5 q + 1)
     (2, 7 / (4 * math.pi * H ** 2), 3 / 16, -5 / 8),     # (1 - q/2)^4 (2 q + 1)
     (3, 21 / (16 * math.pi * H ** 3), 3 / 16, -5 / 8)])
 def test_wendland_c2_values(dim, alpha, w_h, dw_h):
-    """Wendland C2 on support 2h: W(0) = alpha_d (5/(8h), 7/(4 pi h^2), 21/(16 pi h^3)), W(h) and
+    """Wendland C2 on support 2h: W(0) = alpha_d (7/(4 pi h^2), 21/(16 pi h^3)), W(h) and
     dW/dr(h) from the polynomial at q = 1, zero from 2h on (constants typed here, not read from parsph)."""
     k = get_kernel("wendland_c2", dim)
     assert k.norm(H, dim) == pytest.approx(alpha, rel=1e-14)
@@ -172,4 +172,4 @@ def test_kernel_ids_distinct():
         k = get_kernel(name, dim)
         by_id.setdefault(k.kid, set()).add((k.w, k.dwdr))
     assert all(len(fns) == 1 for fns in by_id.values()), by_id
-    assert len(by_id) == 3  # cubic spline, Wendland C2 in 2-/3-D, Wendland C2 in 1-D
+    assert len(by_id) == 2  # cubic spline, Wendland C2
