@@ -15,9 +15,9 @@ Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
 slab decomposition plays no part. Each run takes ``STEPS`` = 2,000 steps of a
 fixed
 
-    dt = multiple * predicted limit,  predicted limit = min(CFL with c(theta_0) + V_w, viscous, force)
+    dt = multiple * predicted limit,  predicted limit = min(von Neumann limit of the integrator, 0.5 h / V_w)
 
-(``parsph.config.dt_limits``; ``numerics.allow_unstable_dt = true`` lets the
+(``parsph.limits``, as config.build takes it; ``numerics.allow_unstable_dt = true`` lets the
 multiples above 1 run). The solver's own guard runs every step
 (``checks.every = 1``) with the thresholds below, and the probe records the
 four criteria separately at every check (``check()`` is also what the
@@ -576,7 +576,7 @@ def main(argv=None):
                     help="couette (the map) or settling (the granular column, gravity on)")
     ap.add_argument("--damping", action="store_true",
                     help="theta_0 = 0.7, Re = 57 at the --nx given: fixed dt = DAMPING_FRACTIONS x nu/c^2, "
-                         "and dt = \"auto\" (the margin of config.DAMPING)")
+                         "and dt = \"auto\" (the margin of the damping limit)")
     ap.add_argument("--pred", default="",
                     help="columns 'theta:Re,...' at each --nx: fixed dt = PRED_MULTS x the predicted limit "
                          "(stability_pred.csv) and one dt = \"auto\" run (stability_auto.csv)")
