@@ -10,6 +10,7 @@ import tomllib
 
 from .kernels import KERNEL_NAMES, get_kernel
 from . import closures
+from . import limits as stability
 from .integrate import INTEGRATORS
 from .scenes import SCENE_NAMES, get_scene
 
@@ -294,40 +295,6 @@ class RunConfig:
         return self.values[section][key]
 
 
-DAMPING = 0.1   # C_d of the damping limit: stable to 0.47, 0.20, 0.16 nu/c^2 at N_x = 50, 200, 400 (docs/stability.md)
-
-
-def damping_limit(theta, k, G_a, G_b):
-    """The paper integrator's damping limit C_d nu / c^2 = C_d k theta / G(theta) [s].
-
-    Eq. (7) is first order in v: it amplifies a pressure wave by |lambda|^2 =
-    1 - gamma dt + omega^2 dt^2 / 2 per step, which only viscosity damps
-    (docs/stability.md, section 1). nu / c^2 falls as theta rises: evaluate it
-    at the largest theta. Independent of h.
-    """
-    G = closures.modulus(theta, G_a, G_b)
-    return DAMPING * k * theta / G if k > 0 and G > 0 else math.inf  # G underflows to 0: no wave to damp
-
-
-def dt_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, integrator=None):
-    """Stability limits [s] (inf where absent): CFL, viscous and force of PHYSICS.md, and with
-    ``integrator = "paper"`` the damping limit of that integrator (``damping_limit``).
-
-    The one definition of each: ``config.build`` checks a fixed dt and sets the first
-    automatic one with it, ``Simulation.stable_dt`` recomputes it every step.
-    """
-    c = math.sqrt(closures.modulus(theta, G_a, G_b) / rho_s)
-    nu = k * theta / rho_s
-    lim = {
-        "cfl": 0.25 * h / (c + vmax) if c + vmax > 0 else math.inf,
-        "viscous": 0.125 * h * h / nu if nu > 0 else math.inf,
-        "force": 0.25 * math.sqrt(h / amax) if amax > 0 else math.inf,
-    }
-    if integrator == "paper":
-        lim["damping"] = damping_limit(theta, k, G_a, G_b)
-    return lim
-
-
 def build(raw, text):
     """Validate a raw run-file dict and derive the run's quantities."""
     v = validate(raw)
@@ -394,8 +361,8 @@ def build(raw, text):
         pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
         viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
     try:
-        limits = dt_limits(h, theta0, mat["rho_s"], mat["k"], mat["G_a"], mat["G_b"],
-                           cfg.velocity_scale, math.sqrt(sum(x * x for x in g)), num["integrator"])
+        # the run's limits at theta_0 (parsph.limits): the refusal of a fixed dt and the first automatic dt
+        limits = dict(stability.run_limits(cfg, theta0, cfg.velocity_scale, math.sqrt(sum(x * x for x in g))))
     except OverflowError:
         key = "material.G_a" if abs(mat["G_a"] * theta0) >= abs(mat["G_b"]) else "material.G_b"
         raise ConfigError(key, f"G(theta0) = 10^({mat['G_a']:g} theta0 + {mat['G_b']:g}) overflows") from None

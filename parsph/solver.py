@@ -27,8 +27,7 @@ from types import SimpleNamespace
 import numpy as np
 from mpi4py import MPI
 
-from . import integrate
-from .config import dt_limits
+from . import integrate, limits
 from .decomposition import SlabRing
 from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
 from .kernels import get_kernel, lattice_sum
@@ -214,9 +213,7 @@ class Simulation:
         self.comm.Allreduce(local, glob, op=MPI.MAX)
         vmax, theta_max, amax = glob
         theta_max = min(theta_max, 0.999)
-        # the same limits as config.build's, at the current state (the damping one at theta_max)
-        lim = dt_limits(cfg.h, theta_max, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax, cfg.integrator)
-        return min(lim.values())
+        return limits.stable_dt(cfg, theta_max, vmax, amax)[0]   # config.build's limits, at the current state
 
     # ---- reductions ------------------------------------------------------------
     def profile(self):

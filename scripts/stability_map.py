@@ -15,9 +15,9 @@ Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
 slab decomposition plays no part. Each run takes ``STEPS`` = 2,000 steps of a
 fixed
 
-    dt = multiple * predicted limit,  predicted limit = min(CFL with c(theta_0) + V_w, viscous, force)
+    dt = multiple * predicted limit,  predicted limit = min(von Neumann limit of the integrator, 0.5 h / V_w)
 
-(``parsph.config.dt_limits``; ``numerics.allow_unstable_dt = true`` lets the
+(``parsph.limits``, as config.build takes it; ``numerics.allow_unstable_dt = true`` lets the
 multiples above 1 run). The solver's own guard runs every step
 (``checks.every = 1``) with the thresholds below, and the probe records the
 four criteria separately at every check (``check()`` is also what the
@@ -89,6 +89,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 from mpi4py import MPI  # noqa: E402
 
 from parsph import config  # noqa: E402
+from parsph import limits  # noqa: E402
 from parsph import analytic  # noqa: E402
 from parsph.scenes import settling as settling_scene  # noqa: E402
 from parsph.closures import modulus  # noqa: E402
@@ -134,26 +135,25 @@ def base_raw():
     return raw
 
 
-def physics(theta0, Re, nx, raw=None):
-    """k, h and the predicted limits of one (theta_0, Re, N_x)."""
+def physics(theta0, Re, nx, raw=None, integrator="paper"):
+    """k, h, the predicted limits of one (theta_0, Re, N_x) (parsph.limits, as config.build takes them:
+    the von Neumann limit of the integrator, advection with V_w), the binding term, and 2 nu / c_eff^2."""
     raw = raw or base_raw()
     L, rho_s = raw["domain"]["L"], raw["material"]["rho_s"]
     V_w = raw.get("walls", {}).get("V_w", 1.0)
     k = abs(V_w) * L * rho_s / (Re * theta0)
-    h = H_OVER_DX * L / nx
-    lim = config.dt_limits(h, theta0, rho_s, k, 8.76, -1.183, abs(V_w))
+    dx = L / nx
+    h = H_OVER_DX * dx
+    lim = limits.limits(h, (dx, dx), theta0, rho_s, k, 8.76, -1.183, abs(V_w), 0.0, integrator=integrator,
+                        beta_max=raw.get("walls", {}).get("beta_max", 1.5))
     term = min(lim, key=lim.get)
-    # Not part of the predicted limit: the paper integrator's first-order velocity
-    # update amplifies an acoustic mode by |lambda|^2 = 1 - nu kappa^2 dt + (c kappa dt)^2 / 2
-    # per step, which viscosity damps only for dt < 2 nu / c^2 (docs/stability.md).
-    nu = k * theta0 / rho_s
-    c2 = modulus(theta0) / rho_s
-    return k, h, lim, term, 2.0 * nu / c2
+    c2 = limits.sound_speed(theta0, rho_s, 8.76, -1.183, "paper") ** 2
+    return k, h, lim, term, 2.0 * k * theta0 / rho_s / c2
 
 
 def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, extra=(), integrator="paper"):
     raw = base_raw()
-    k, h, lim, term, _ = physics(theta0, Re, nx, raw)
+    k, h, lim, term, _ = physics(theta0, Re, nx, raw, integrator)
     dt = multiple * lim[term]
     over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}",
             f"domain.Ly={LY_IN_H * h!r}", f"numerics.dt={dt!r}", "numerics.allow_unstable_dt=true",
@@ -251,15 +251,14 @@ def run_and_classify(sim):
 def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, source="grid", integrator="paper"):
     """Run one case; return its CSV row (dict)."""
     cfg = case_config(theta0, Re, nx, multiple, steps, theta_frac, integrator=integrator)
-    k, h, lim, term, dt_ac = physics(theta0, Re, nx)
+    k, h, lim, term, dt_ac = physics(theta0, Re, nx, integrator=integrator)
     sim = Probe(cfg, MPI.COMM_SELF, theta_frac)
     outcome = run_and_classify(sim)
     return {
         "nx": nx, "theta0": theta0, "Re": Re, "k": k, "multiple": multiple, "dt": cfg.dt,
-        "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
-        "dt_acoustic_damping": dt_ac, "steps_planned": cfg.nsteps, "steps_done": sim.step,
-        **outcome, "source": source, "commit": COMMIT,
-        "integrator": integrator,
+        "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["advection"],
+        "dt_viscous": lim.get("viscous", math.inf), "dt_acoustic_damping": dt_ac, "steps_planned": cfg.nsteps,
+        "steps_done": sim.step, **outcome, "source": source, "commit": COMMIT, "integrator": integrator,
     }
 
 
@@ -577,9 +576,18 @@ def main(argv=None):
                     help="couette (the map) or settling (the granular column, gravity on)")
     ap.add_argument("--damping", action="store_true",
                     help="theta_0 = 0.7, Re = 57 at the --nx given: fixed dt = DAMPING_FRACTIONS x nu/c^2, "
-                         "and dt = \"auto\" (the margin of config.DAMPING)")
+                         "and dt = \"auto\" (the margin of the damping limit)")
+    ap.add_argument("--pred", default="",
+                    help="columns 'theta:Re,...' at each --nx: fixed dt = PRED_MULTS x the predicted limit "
+                         "(stability_pred.csv) and one dt = \"auto\" run (stability_auto.csv)")
+    ap.add_argument("--ratios", nargs="*", default=None,
+                    help="CSVs of runs (any prediction): measured stable dt / the predicted limit per column")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
+    if a.ratios is not None:
+        return main_ratios(a)
+    if a.pred:
+        return main_pred(a)
     if a.damping:
         return main_damping(a)
     if a.scene == "settling":
@@ -675,15 +683,16 @@ def settling_raw():
 
 
 def settling_limits(theta0, nx, theta=None):
-    """The predicted limits of the column at theta (default theta_0): config.dt_limits as config.build
-    calls it (velocity scale sqrt(g h), |g|, the run file's integrator)."""
+    """The predicted limits of the column at theta (default theta_0): parsph.limits as config.build
+    takes them (velocity scale sqrt(g h), |g|, the run file's integrator and pressure form)."""
     raw = settling_raw()
-    L, mat, num = raw["domain"]["L"], raw["material"], raw["numerics"]
-    g = math.sqrt(sum(x * x for x in raw["body_force"]["g"]))
-    h = num["h_over_dx"] * L / nx
-    th = theta0 if theta is None else theta
-    return config.dt_limits(h, th, mat["rho_s"], mat["k"], mat.get("G_a", 8.76), mat.get("G_b", -1.183),
-                            math.sqrt(g * h), g, num.get("integrator", "paper"))
+    L = raw["domain"]["L"]
+    over = [f"numerics.Nx={nx}", f"material.theta0={theta0!r}", f"domain.Ly={LY_IN_H * raw['numerics']['h_over_dx'] * L / nx!r}",
+            'numerics.dt="auto"']
+    config.apply_overrides(raw, over)
+    cfg = config.build(raw, config.dumps(raw))
+    g = math.sqrt(sum(x * x for x in cfg.g))
+    return limits.run_limits(cfg, theta0 if theta is None else theta, cfg.velocity_scale, g)
 
 
 def settling_config(theta0, nx, multiple, steps=None):
@@ -741,7 +750,8 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
     c2 = modulus(theta0, cfg.G_a, cfg.G_b) / cfg.rho_s
     return {
         "nx": nx, "theta0": theta0, "Re": Re, "k": cfg.k, "multiple": multiple, "dt": cfg.dt,
-        "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["cfl"], "dt_viscous": lim["viscous"],
+        "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["advection"],
+        "dt_viscous": lim.get("viscous", math.inf),
         "dt_acoustic_damping": 2.0 * cfg.nu / c2, "steps_planned": cfg.nsteps, "steps_done": sim.step,
         **outcome, "source": source, "commit": COMMIT,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
@@ -861,19 +871,20 @@ def main_settling(a):
 DAMPING_FRACTIONS = (0.1, 0.13, 0.16, 0.18, 0.2, 0.26)
 
 
-def run_auto(theta0, Re, nx, steps=STEPS):
-    """dt = "auto" (the run's limits, damping included) for about ``steps`` steps of its first dt."""
-    k, h, lim, term, _ = physics(theta0, Re, nx)
-    rho_s = base_raw()["material"]["rho_s"]
-    first = min(config.dt_limits(h, theta0, rho_s, k, 8.76, -1.183, 1.0, integrator="paper").values())
-    cfg = case_config(theta0, Re, nx, first / lim[term], steps, extra=['numerics.dt="auto"'])
+def run_auto(theta0, Re, nx, steps=STEPS, integrator="paper"):
+    """dt = "auto" (the run's limits) for about ``steps`` steps of its first dt (config.build's)."""
+    k, h, lim, term, _ = physics(theta0, Re, nx, integrator=integrator)
+    cfg = case_config(theta0, Re, nx, 1.0, steps, extra=['numerics.dt="auto"'], integrator=integrator)
+    first = cfg.dt
     sim = Probe(cfg, MPI.COMM_SELF, THETA_FRAC)
     msg = ""
+    t0 = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
             sim.run()
     except Exception as e:  # noqa: BLE001 - a guard or anything else: reported
         msg = f"{type(e).__name__}: {e}"
+    sim.wall_s = time.perf_counter() - t0
     fired = [c for c in CRITERIA if sim.first[c] >= 0]
     return sim, first, fired, msg
 
@@ -896,6 +907,90 @@ def main_damping(a, theta0=0.7, Re=57.0):
         print(lines[-2] + "\n" + lines[-1], flush=True)
     with open(os.path.join(a.out, "summary_damping.txt"), "w") as f:
         f.write("\n".join(lines) + "\n")
+    return 0
+
+
+# ---- the prediction of parsph.limits against runs (--pred, --ratios) ---------------------------------
+PRED_MULTS = (1.0, 1.5, 2.0)
+AUTO_FIELDS = ["nx", "theta0", "Re", "integrator", "k", "dt_first", "term", "steps_done", "t_done", "stable",
+               "fired", "message", "wall_s", "commit"]
+
+
+def main_pred(a):
+    """Fixed dt at PRED_MULTS x the prediction (0.5 too where 1 fails) and one auto run, per column."""
+    res = Results(os.path.join(a.out, f"stability_pred_{a.integrator}.csv"), integrator=a.integrator)
+    auto_path = os.path.join(a.out, "stability_auto.csv")
+    done = {(r["nx"], r["theta0"], r["Re"], r["integrator"]) for r in load_rows(auto_path)}
+    cols = [tuple(float(x) for x in c.split(":")) for c in a.pred.split(",") if c]
+    for nx in [int(x) for x in a.nx.split(",") if x]:
+        for t, Re in cols:
+            for m in PRED_MULTS:
+                row = res.get(t, Re, nx, m, source="pred")
+                if row["stable"] != "1":
+                    if m == PRED_MULTS[0]:
+                        res.get(t, Re, nx, 0.5, source="pred")
+                    break
+            if (str(nx), repr(t), repr(Re), a.integrator) in done:
+                continue
+            sim, first, fired, msg = run_auto(t, Re, nx, integrator=a.integrator)
+            k, h, lim, term, _ = physics(t, Re, nx, integrator=a.integrator)
+            row = {"nx": nx, "theta0": repr(t), "Re": repr(Re), "integrator": a.integrator, "k": k,
+                   "dt_first": first, "term": term, "steps_done": sim.step, "t_done": sim.t,
+                   "stable": int(not fired and not msg), "fired": " ".join(fired), "message": msg,
+                   "wall_s": round(sim.wall_s, 2), "commit": COMMIT}
+            new = not os.path.exists(auto_path)
+            with open(auto_path, "a", newline="") as f:
+                w = csv.DictWriter(f, AUTO_FIELDS)
+                if new:
+                    w.writeheader()
+                w.writerow(row)
+            print(f"auto Nx={nx} theta0={t:g} Re={Re:g} {a.integrator}: first dt {first:.3g} s ({term}), "
+                  f"{sim.step} steps, {'stable' if row['stable'] else 'UNSTABLE ' + row['fired'] + ' ' + msg}",
+                  flush=True)
+    return 0
+
+
+def measured_bounds(rows):
+    """(largest dt [s] with no time-step failure at or below it, smallest dt with one) of one column."""
+    rows = sorted(rows, key=lambda r: float(r["dt"]))
+    phys = physical_time(sorted(rows, key=lambda r: float(r["multiple"])))
+    lo = hi = None
+    for r in rows:
+        v = r.get("verdict") or verdict(r, phys)
+        if v == "dt":
+            hi = float(r["dt"])
+            break
+        lo = float(r["dt"])
+    return lo, hi
+
+
+def main_ratios(a):
+    """Per (integrator, N_x, theta_0, Re): the measured bounds over every run in the CSVs (absolute dt)
+    divided by parsph.limits' prediction now (ratios.csv)."""
+    cols = {}
+    for path in a.ratios:
+        for r in load_rows(path):
+            r.setdefault("integrator", "paper")
+            if "midpoint" in os.path.basename(path):
+                r["integrator"] = "midpoint"
+            key = (r["integrator"] or "paper", int(r["nx"]), round(float(r["theta0"]), 6), round(float(r["Re"]), 6))
+            cols.setdefault(key, []).append(r)
+    out = []
+    for (integ, nx, t, Re), rows in sorted(cols.items()):
+        k, h, lim, term, dt_ac = physics(t, Re, nx, integrator=integ)
+        lo, hi = measured_bounds(rows)
+        p = lim[term]
+        out.append({"integrator": integ, "nx": nx, "theta0": t, "Re": Re, "term": term, "dt_pred": p,
+                    "stable_to": lo / p if lo else "", "fails_at": hi / p if hi else "", "runs": len(rows)})
+        f = lambda v: f"{v:.3g}" if v != "" else "-"  # noqa: E731
+        print(f"{integ:8} {nx:4d} {t:5.2f} {Re:6g} {term:9} {p:9.3g}  {f(out[-1]['stable_to']):>6} .. "
+              f"{f(out[-1]['fails_at']):<6} ({len(rows)} runs)")
+    path = os.path.join(a.out, "ratios.csv")
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, list(out[0]))
+        w.writeheader()
+        w.writerows(out)
+    print(f"wrote {path}")
     return 0
 
 

@@ -58,24 +58,30 @@ def test_paper_derived(paper_cfg):
 
 
 def test_paper_stability_limits(paper_cfg):
+    from parsph import limits
     cfg = paper_cfg()
-    lim = cfg.limits
-    assert lim["cfl"] == pytest.approx(5.2e-5, rel=0.02)
-    assert lim["viscous"] == pytest.approx(4.5e-5, rel=0.02)
-    assert lim["force"] == math.inf  # no body force in the paper case
+    # Monaghan's limits with the closure's c (consistent form) and with the paper form's c_eff (PHYSICS.md)
+    cons = limits.classical_limits(cfg.h, cfg.theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="consistent")
+    assert cons["cfl"] == pytest.approx(5.2e-5, rel=0.02)
+    assert cons["viscous"] == pytest.approx(4.5e-5, rel=0.02)
+    assert cons["force"] == math.inf  # no body force in the paper case
     # independent: c = sqrt(G / rho_s) = 0.195 m/s; dt <= 0.25 h / (c + V_w); dt <= 0.125 h^2 / nu
     c = math.sqrt(76.38 / 2000.0)
     assert c == pytest.approx(0.195, rel=0.01)
-    assert lim["cfl"] == pytest.approx(0.25 * 2.5e-4 / (c + 1.0), rel=1e-3)
-    assert lim["viscous"] == pytest.approx(0.125 * 2.5e-4 ** 2 / 1.75e-4, rel=1e-12)
-    # the paper's dt is about 4.5x inside
-    assert min(lim.values()) / cfg.dt == pytest.approx(4.5, rel=0.02)
+    assert cons["cfl"] == pytest.approx(0.25 * 2.5e-4 / (c + 1.0), rel=1e-3)
+    assert cons["viscous"] == pytest.approx(0.125 * 2.5e-4 ** 2 / 1.75e-4, rel=1e-12)
+    paper = limits.classical_limits(cfg.h, cfg.theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="paper")
+    assert paper["cfl"] == pytest.approx(4.0e-5, rel=0.02)
+    # the run's limit (von Neumann, viscous here) accepts the paper's dt
+    assert min(cfg.limits, key=cfg.limits.get) == "viscous" and min(cfg.limits.values()) > cfg.dt
 
 
-@pytest.mark.parametrize("theta0,dtcfl", [(0.05, 6.2e-5), (0.35, 5.2e-5), (0.60, 1.8e-5),
-                                          (0.64, 1.3e-5), (0.70, 8.2e-6)])
+@pytest.mark.parametrize("theta0,dtcfl", [(0.05, 6.2e-5), (0.35, 4.0e-5), (0.60, 6.4e-6),
+                                          (0.64, 4.3e-6), (0.70, 2.3e-6)])
 def test_cfl_limits_table(paper_cfg, theta0, dtcfl):
-    """PHYSICS.md "Extremes worth probing": CFL limits with k = 1, V_w = 1 (printed to 2 digits)."""
+    """PHYSICS.md "Extremes worth probing": CFL limits with c_eff, k = 1, V_w = 1 (printed to 2 digits)."""
+    from parsph import limits
     cfg = paper_cfg(f"material.theta0={theta0}", "numerics.dt=\"auto\"")
-    assert float(f"{cfg.limits['cfl']:.2g}") == dtcfl
+    cfl = limits.classical_limits(cfg.h, theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="paper")["cfl"]
+    assert float(f"{cfl:.2g}") == dtcfl
     assert cfg.dt_auto and cfg.dt == pytest.approx(min(cfg.limits.values()), rel=1e-12)

@@ -7,11 +7,12 @@ criteria of scripts/stability_map.py, checked at every step: all values
 finite, no fluid particle beyond a wall plane, |theta - theta_0| / theta_0 <=
 THETA_FRAC, fluid kinetic energy <= 1/2 M V_w^2.
 
-The predicted limit of the map (``predicted_limit``) is min(CFL, viscous,
-force); the limit a run gets (``run_limit``: config.build's refusal, the first
-dt = "auto" and Simulation.stable_dt) adds the paper integrator's damping
-limit, which binds at dense packing (at theta_0 = 0.7, k = 1: 7.87e-7 s).
-The guards' own tests (worst particle, theta range, check 5 on 4 ranks) are
+The limit a run gets (parsph.limits: config.build's refusal, the first
+dt = "auto" and Simulation.stable_dt) is checked here against the continuum
+form of its binding term, computed in this file from G(theta): at dense
+packing the paper integrator's acoustic damping limit 2 nu / c_eff^2, with
+c_eff^2 = G (1 + G_a ln10 theta) / rho_s; tests/test_limits.py checks the
+lattice analysis itself against the Jacobian of the rates. The guards' own tests (worst particle, theta range, check 5 on 4 ranks) are
 in tests/test_guards.py.
 """
 import math
@@ -26,7 +27,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph import config
-from parsph.config import ConfigError, dt_limits
+from parsph.config import ConfigError
 from parsph.output import output_files, read_profile
 from parsph.particles import FLUID
 from parsph.solver import CHECKS, GuardError, Simulation
@@ -40,8 +41,21 @@ STEPS = 2000
 THETA_FRAC = 0.2
 L = 0.01
 RHO_S = 2000.0
-LIMIT_07 = 8.150929206793097e-06   # predicted limit (CFL) at theta_0 = 0.7, N_x = 50, k = 1
-DAMPING_07 = 7.872234817768488e-07  # the paper integrator's damping limit there: 0.1 k theta / G(theta)
+LN10 = math.log(10.0)
+
+
+def G(theta):
+    return 10.0 ** (8.76 * theta + -1.183)
+
+
+def damping_07(k=1.0):
+    """2 nu / c_eff^2 at theta = 0.7: the paper integrator's acoustic limit in the continuum (PHYSICS.md)."""
+    return 2 * k * 0.7 / RHO_S / (G(0.7) * (1 + 8.76 * LN10 * 0.7) / RHO_S)
+
+
+# Monaghan's CFL at theta_0 = 0.7, N_x = 50 with the closure's c = sqrt(G / rho_s): what the map called
+# the predicted limit before the sound speed was corrected; 4x it blows up at once
+CFL_07 = 0.25 * (1.25 * L / 50) / (math.sqrt(G(0.7) / RHO_S) + 1.0)
 needs_mpirun = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself")
 
 
@@ -50,24 +64,20 @@ def k_for(Re, theta0):
     return 1.0 * L * RHO_S / (Re * theta0)
 
 
-def predicted_limit(theta0, k, nx=50, integrator=None):
-    """min(CFL, viscous, force); with an integrator, the limit a run gets (damping too for "paper")."""
-    return min(dt_limits(1.25 * L / nx, theta0, RHO_S, k, 8.76, -1.183, 1.0, integrator=integrator).values())
-
-
 def make_cfg(theta0=0.35, k=1.0, nx=50, dt="auto", steps=STEPS, times=(), extra=()):
     """The paper case with h = 1.25 dx, L_y = 8 h; t_end = steps * dt (auto: the run's limit at t = 0)."""
     raw = paper_raw()
     raw["numerics"].pop("h")
     h = 1.25 * L / nx
-    integrator = next((e.split("=")[1].strip('"') for e in extra if e.startswith("numerics.integrator=")), "paper")
-    dt0 = predicted_limit(theta0, k, nx, integrator) if dt == "auto" else dt
+    def build(t_end):
+        r = {s: dict(v) for s, v in raw.items()}
+        config.apply_overrides(r, over + [f"output.t_end={t_end!r}"])
+        return config.build(r, config.dumps(r))
     over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}", "numerics.h_over_dx=1.25",
             f"domain.Ly={8 * h!r}", f"numerics.dt={dt!r}" if dt != "auto" else 'numerics.dt="auto"',
-            f"output.t_end={steps * dt0!r}", f"output.times={list(times)!r}", "output.progress_interval=0",
-            "checks.every=1", *extra]
-    config.apply_overrides(raw, over)
-    return config.build(raw, config.dumps(raw))
+            f"output.times={list(times)!r}", "output.progress_interval=0", "checks.every=1", *extra]
+    dt0 = build(1.0).dt if dt == "auto" else dt   # auto: the run's limit at t = 0
+    return build(steps * dt0)
 
 
 class Probe(Simulation):
@@ -113,20 +123,20 @@ def assert_stable(sim, steps=STEPS):
 
 # ---- theta_0 = 0.7 -----------------------------------------------------------------------------------
 def test_dense_with_the_paper_dt_is_refused_naming_the_limit(tmp_path):
-    """theta_0 = 0.7, dt = 1e-5 s (the paper's): above the damping limit 7.87e-7 s, refused before the run."""
+    """theta_0 = 0.7, dt = 1e-5 s (the paper's): above the damping limit (about 2 nu / c_eff^2 = 1.04e-6 s),
+    refused before the run."""
     with pytest.raises(ConfigError) as e:
         config.load(str(PAPER_TOML), ["material.theta0=0.7"])
     assert e.value.key == "numerics.dt"
-    assert "7.87e-07" in str(e.value) and "(damping)" in str(e.value), e.value
-    assert predicted_limit(0.7, 1.0) == pytest.approx(LIMIT_07, rel=1e-12)
-    assert predicted_limit(0.7, 1.0, integrator="paper") == pytest.approx(DAMPING_07, rel=1e-12)
+    limit = float(re.search(r"stability limit ([0-9.e+-]+) s \(damping\)", str(e.value)).group(1))
+    assert limit == pytest.approx(damping_07(), rel=0.02), e.value
     # the command line: exit 2, one line with the limit, nothing written
     out = tmp_path / "out"
     rc, stdout, stderr = run_cli("run", PAPER_TOML, "--set", "material.theta0=0.7", "--out", out, "--quiet")
     assert rc == 2, (stdout, stderr)
     lines = [ln for ln in stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("parsph: error: numerics.dt:"), stderr
-    assert "7.87e-07 s (damping)" in lines[0] and "allow_unstable_dt" in lines[0], stderr
+    assert f"{limit:.3g} s (damping)" in lines[0] and "allow_unstable_dt" in lines[0], stderr
     assert not out.exists() or not any(out.iterdir())
     # the expert's override is accepted (and warned about at run time: test_forced_blowup_cli)
     cfg = config.load(str(PAPER_TOML), ["material.theta0=0.7", "numerics.allow_unstable_dt=true"])
@@ -134,13 +144,14 @@ def test_dense_with_the_paper_dt_is_refused_naming_the_limit(tmp_path):
 
 
 def test_dense_below_the_cfl_but_above_the_damping_limit_is_refused():
-    """theta_0 = 0.7, fixed dt = 5e-6 s: inside the CFL limit (8.15e-6 s) but the map shows the paper
+    """theta_0 = 0.7, fixed dt = 5e-6 s: inside the closure's CFL limit but the map shows the paper
     integrator fails there (stable only to 2-2.9e-6 s at Re = 57); refused, naming the damping limit.
-    The midpoint integrator has no damping limit: accepted."""
+    The midpoint integrator's acoustic limit is larger (its growth is third order in dt): accepted."""
     with pytest.raises(ConfigError) as e:
         make_cfg(theta0=0.7, k=1.0, dt=5e-6)
     assert e.value.key == "numerics.dt"
-    assert "5e-06 s is above the stability limit 7.87e-07 s (damping)" in str(e.value), e.value
+    assert "5e-06 s is above the stability limit" in str(e.value) and "(damping)" in str(e.value), e.value
+    assert 5e-6 < CFL_07
     cfg = make_cfg(theta0=0.7, k=1.0, dt=5e-6, extra=['numerics.integrator="midpoint"'])
     assert "damping" not in cfg.limits and cfg.dt == 5e-6
 
@@ -150,19 +161,21 @@ def test_dense_auto_is_stable_for_2000_steps():
 
     config.build's first dt and stable_dt's agree: both are the damping limit here."""
     cfg = make_cfg(theta0=0.7, k=1.0)
-    assert cfg.dt_auto and cfg.dt == pytest.approx(DAMPING_07, rel=1e-12)
+    assert cfg.dt_auto and cfg.dt == pytest.approx(damping_07(), rel=0.02)
     assert min(cfg.limits, key=cfg.limits.get) == "damping"
     sim = run_probe(cfg)
     assert_stable(sim)
-    # theta_max grows (to 0.71): dt shrinks to 5.3e-7 s (measured), 2,000 nominal steps take more
-    assert sim.dt <= DAMPING_07 and sim.step <= 1.6 * STEPS, (sim.dt, sim.step)
+    # theta_max grows: dt shrinks, 2,000 nominal steps take more
+    assert sim.dt <= cfg.dt and sim.step <= 1.6 * STEPS, (sim.dt, sim.step)
 
 
 def test_dense_auto_with_the_midpoint_integrator_is_stable_for_2000_steps():
     """The workaround that works today: the second-order integrator at dt = "auto" (measured: no check fires)."""
-    sim = run_probe(make_cfg(theta0=0.7, k=1.0, extra=['numerics.integrator="midpoint"']))
+    cfg = make_cfg(theta0=0.7, k=1.0, extra=['numerics.integrator="midpoint"'])
+    assert cfg.dt > 2 * damping_07() and min(cfg.limits, key=cfg.limits.get) == "acoustic"
+    sim = run_probe(cfg)
     assert_stable(sim)
-    assert 0.5 * LIMIT_07 < sim.dt <= LIMIT_07   # auto shrinks dt as theta_max grows, but not by much
+    assert 0.5 * cfg.dt < sim.dt <= cfg.dt   # auto shrinks dt as theta_max grows, but not by much
 
 
 # ---- theta_0 = 0.05, both ends of Re ----------------------------------------------------------------
@@ -205,8 +218,9 @@ def test_very_coarse_runs_and_reports_its_error(tmp_path):
 
 
 # ---- a forced blow-up -----------------------------------------------------------------------------------
-BLOWUP = ["material.theta0=0.7", f"numerics.dt={4 * LIMIT_07!r}", "numerics.allow_unstable_dt=true",
-          "domain.Ly=0.002", f"output.t_end={2000 * 4 * LIMIT_07!r}", f"output.times=[{5 * 4 * LIMIT_07!r}]"]
+BLOWUP_DT = 4 * CFL_07
+BLOWUP = ["material.theta0=0.7", f"numerics.dt={BLOWUP_DT!r}", "numerics.allow_unstable_dt=true",
+          "domain.Ly=0.002", f"output.t_end={2000 * BLOWUP_DT!r}", f"output.times=[{5 * BLOWUP_DT!r}]"]
 
 ALL_RANKS = textwrap.dedent("""
     import sys
@@ -280,7 +294,9 @@ def test_forced_blowup_cli(tmp_path, every):
     out = tmp_path / "out"
     r = mpirun(launch.PYTHON, "-m", "parsph", "run", PAPER_TOML, *_sets([*BLOWUP, f"checks.every={every}"]),
                "--out", out, "--quiet")
-    assert "warning: dt = 3.26037e-05 s is above the stability limit 7.87e-07 s" in r.output, r
+    warned = re.search(r"warning: dt = ([0-9.e+-]+) s is above the stability limit ([0-9.e+-]+) s", r.output)
+    assert warned and float(warned.group(1)) == pytest.approx(BLOWUP_DT, rel=1e-5), r
+    assert float(warned.group(2)) == pytest.approx(damping_07(), rel=0.02), r
     assert r.returncode == 3, r
     assert launch.count_lines(r.output, "check failed") == 1, r
     line = next(ln for ln in r.output.splitlines() if "check failed" in ln)
@@ -292,7 +308,7 @@ def test_forced_blowup_cli(tmp_path, every):
 
 def test_guard_message_names_the_worst_particle():
     """One rank, dt = 4x the limit at theta_0 = 0.7: the first check to fire is the energy bound (step 9)."""
-    cfg = make_cfg(theta0=0.7, k=1.0, dt=4 * LIMIT_07, extra=["numerics.allow_unstable_dt=true", "checks.every=1"])
+    cfg = make_cfg(theta0=0.7, k=1.0, dt=BLOWUP_DT, extra=["numerics.allow_unstable_dt=true", "checks.every=1"])
     with pytest.raises(GuardError) as e:
         Simulation(cfg, MPI.COMM_SELF).run()
     assert _check_name(str(e.value)) and re.search(r"x = [0-9.e+-]+ m, y = [0-9.e+-]+ m", str(e.value)), e.value
