@@ -10,8 +10,7 @@
 Wall particles move with their prescribed velocity (r += dt v). Positions
 are not wrapped into the periodic box here: particles stay where they are
 until the next rebuild of the neighbour list, which wraps them. Each function
-updates ``disp = pos - ref`` (the displacement since that rebuild) and
-``jump`` (how far a particle moved in the step), and returns the number of
+updates ``jump`` (how far a particle moved in the step) and returns the number of
 owned particles whose new state is not finite, so that a blow-up is caught
 before the next pass. Particles are independent: the loops are threaded
 (prange), with the count as a reduction.
@@ -26,12 +25,11 @@ INTEGRATORS = ("paper", "midpoint")
 
 
 @njit(cache=True, inline="always")
-def _finish(pos, vel, ref, disp, jump, i, old):
-    """disp and jump of particle i (``old``: its position before the step); 1 if its state is finite."""
+def _finish(pos, vel, jump, i, old):
+    """The jump of particle i (``old``: its position before the step); 1 if its state is finite."""
     ok = 1
     moved = 0.0
     for d in range(pos.shape[1]):
-        disp[i, d] = pos[i, d] - ref[i, d]
         moved += (pos[i, d] - old[d]) ** 2
         if not (math.isfinite(pos[i, d]) and math.isfinite(vel[i, d])):
             ok = 0
@@ -40,7 +38,7 @@ def _finish(pos, vel, ref, disp, jump, i, old):
 
 
 @njit(cache=True, parallel=True)
-def step_paper(pos, vel, acc, kind, n_own, dt, ref, disp, jump):
+def step_paper(pos, vel, acc, kind, n_own, dt, jump):
     """Eqs. (6)-(7)."""
     dim = pos.shape[1]
     half_dt2 = 0.5 * dt * dt
@@ -54,12 +52,12 @@ def step_paper(pos, vel, acc, kind, n_own, dt, ref, disp, jump):
         else:
             for d in range(dim):
                 pos[i, d] += dt * vel[i, d]
-        bad += 1 - _finish(pos, vel, ref, disp, jump, i, old)
+        bad += 1 - _finish(pos, vel, jump, i, old)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, ref, disp, jump):
+def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump):
     """Save (r^n, v^n) and move to the midpoint state (r*, v*)."""
     dim = pos.shape[1]
     bad = 0
@@ -71,12 +69,12 @@ def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, ref, disp, jump
             pos[i, d] += 0.5 * dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] += 0.5 * dt * acc[i, d]
-        bad += 1 - _finish(pos, vel, ref, disp, jump, i, old)
+        bad += 1 - _finish(pos, vel, jump, i, old)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, ref, disp, jump):
+def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*)."""
     dim = pos.shape[1]
     bad = 0
@@ -86,5 +84,5 @@ def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, ref, disp, jump
             pos[i, d] = pos0[i, d] + dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] = vel0[i, d] + dt * acc[i, d]
-        bad += 1 - _finish(pos, vel, ref, disp, jump, i, old)
+        bad += 1 - _finish(pos, vel, jump, i, old)
     return bad

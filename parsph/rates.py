@@ -90,7 +90,7 @@ class Rates:
 
     def spread(self, ps):
         """The largest displacement spread over the blocks of this rank (the list holds while below the skin)."""
-        return neighbours.block_spread(ps.disp, ps.n, self.cell, self.size, self.centre_lo, self.centre_hi,
+        return neighbours.block_spread(ps.disp, self.n, self.cell, self.size, self.centre_lo, self.centre_hi,
                                        self.box, self.work)
 
     def _threaded_arrays(self):
@@ -113,7 +113,7 @@ class Rates:
         Wall particles keep the rho they hold. ``timers`` (a dict) gets the
         seconds of "density", "halo" and "forces" added.
         """
-        n, n_own, npairs = ps.n, ps.n_own, self.npairs
+        n, n_own, npairs = self.n, ps.n_own, self.npairs  # the particles of the last build
         threaded = numba.get_num_threads() > 1
         t0 = time.perf_counter()
         if threaded:

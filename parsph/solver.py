@@ -105,7 +105,6 @@ class Simulation:
         self._flags_all = np.zeros(3)
         self._coords = np.zeros((0, 3), np.int64)
         self._built = False      # no list yet: the first evaluation builds one
-        self._moved = False      # positions changed since the ghosts were last refreshed
         self._bad = 0            # non-finite particles left by the last integration (this rank)
         self._stop_local = 0     # signal seen by this rank since the last sync
         self.force_rebuild = False
@@ -119,7 +118,9 @@ class Simulation:
         t0 = time.perf_counter()
         ps = self.ps
         spread = 0.0
-        if self._built and self._moved:
+        if self._built:  # positions may have changed (a step, or a caller's perturbation)
+            n = ps.n_own
+            np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])
             self.ring.forward(ps)
             spread = self.rates.spread(ps)
         f = self._flags
@@ -129,7 +130,6 @@ class Simulation:
         self.comm.Allreduce(f, self._flags_all, op=MPI.MAX)
         self._bad = 0
         self._stop_local = 0
-        self._moved = False
         self.syncs += 1
         self.timers["sync"] += time.perf_counter() - t0
         bad, stop, rebuild = self._flags_all
@@ -182,20 +182,18 @@ class Simulation:
         t0 = time.perf_counter()
         n = ps.n_own
         if cfg.integrator == "paper":
-            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.ref, ps.disp, ps.jump)
+            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump)
         else:
-            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.ref,
-                                             ps.disp, ps.jump)
+            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump)
             T["integrate"] += time.perf_counter() - t0
-            self._bad, self._moved = bad, True
+            self._bad = bad
             self.compute_rates()
             t0 = time.perf_counter()
             n = ps.n_own
-            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.ref,
-                                             ps.disp, ps.jump)
+            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump)
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
-        self._bad, self._moved = bad, True
+        self._bad = bad
         self._stop_local = stop_requested() if stop_requested is not None else 0
         T["integrate"] += time.perf_counter() - t0
 
