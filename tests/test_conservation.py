@@ -1,10 +1,13 @@
 """Momentum conservation of Eq. (5) in a fully periodic box without walls.
 
-The package has no periodic-box scene (it is periodic only in y), so the harness is built
-here: fluid particles in [0, Lx) x [0, Ly), periodic image copies within 2h of each edge
-(and corner) appended as halo particles every step, then the package's own cell list,
-density, volume fraction and momentum loops, and Eqs. (6)-(7) via ``step_paper`` (which
-wraps x and y into the box given as its periods).
+Most tests use a harness built here rather than the solver, so that each term can be
+switched on alone and the loops compared pair by pair with a brute-force sum: fluid
+particles in [0, Lx) x [0, Ly), periodic image copies within 2h of each edge (and corner)
+appended as halo particles every step, then the package's own cell list, density, volume
+fraction and momentum loops, and Eqs. (6)-(7) via ``step_paper`` (which wraps x and y into
+the box given as its periods). The last test repeats the conservation statement through the
+solver's ``periodic_box`` scene (x periodic by the solver's local copies, y by the slab ring),
+started from the harness's state.
 
 Eq. (5)'s pressure term is pairwise antisymmetric, so it conserves momentum to round-off
 for any particle arrangement. Its viscous term, with mu_i = k theta_i as PHYSICS.md and the
