@@ -282,6 +282,13 @@ def reference_lines(p, points=401):
     return x, lines
 
 
+def profile_png(first):
+    """DIR/<stem>_profile.png for the output file DIR/<stem>_NNNN.h5 (an index of four digits or more)."""
+    import re
+    stem = re.sub(r"_\d{4,}\.h5$", "", os.path.basename(first))
+    return os.path.join(os.path.dirname(first), stem + "_profile.png")
+
+
 def cmd_plot(args):
     import matplotlib
     matplotlib.use("Agg")
@@ -290,7 +297,7 @@ def cmd_plot(args):
     from .output import output_files, read_profile
     p = _read(args.output, read_profile)
     first = output_files(args.output)[0]
-    png = args.png or os.path.join(os.path.dirname(first), os.path.basename(first)[:-8] + "_profile.png")
+    png = args.png or profile_png(first)
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
     L = p["attrs"]["L"]

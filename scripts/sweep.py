@@ -44,7 +44,8 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 sys.path.insert(0, ROOT)
 
-from sweep_run import DEFAULTS, TIMES, choices, run_id  # noqa: E402
+from parsph.kernel_analysis import sheared_lattice_bias, viscosity_bias  # noqa: E402
+from sweep_run import DEFAULTS, TIMES, build_config, choices, run_id  # noqa: E402
 
 PAPER_CASE = {"Nx": 50, "dt": 1e-5, "t_end": 0.5}  # Table 1: h = 1.25 dx, cubic, Eqs. (6)-(7), dt = 1e-5 s
 NO_CAP = 1e6  # beta_max "none": 1 + d_j/d_i never reaches it
@@ -232,57 +233,6 @@ def execute(grid, out_dir, jobs, rerun, max_cost, snapshot=True):
 
 
 # ---- analysis -------------------------------------------------------------------------------
-def viscosity_bias(kernel, h_over_dx):
-    """nu_eff / nu of the Morris Laplacian on the infinite square lattice (uniform theta).
-
-    In a uniform state Eq. (5)'s viscous term is 2 nu dx^2 sum_j (v_i - v_j) W'(r_ij) / r_ij;
-    for v = x^2/2 the continuous value of the sum is 1/(2 dx^2), so nu_eff / nu = 2 dx^2 sum(...).
-    The ratio depends on the kernel and h/dx only: at fixed h/dx it does not go away as dx -> 0.
-    """
-    from parsph.kernels import get_kernel
-    k = get_kernel(kernel, 2)
-    h = float(h_over_dx)  # dx = 1
-    norm = k.norm(h, 2)
-    n = int(math.ceil(k.support * h)) + 1
-    total = 0.0
-    for i in range(-n, n + 1):
-        for j in range(-n, n + 1):
-            r = math.hypot(i, j)
-            if 0 < r < k.support * h:
-                total += (-0.5 * i * i) * k.dwdr(r, 1.0 / h, norm) / r
-    return 2.0 * total
-
-
-def sheared_lattice_bias(kernel, h_over_dx, offsets=20):
-    """(min, max) of nu_eff / nu and of the summation density dx^2 sum W over sheared lattices.
-
-    In the Couette flow each lattice column slides along y relative to its neighbours, so a
-    particle sees columns shifted by s, 2s, ... (mod dx). The viscous operator and the density
-    sum of that configuration differ from the square lattice's; both vary with s at fixed h/dx.
-    """
-    from parsph.kernels import get_kernel
-    k = get_kernel(kernel, 2)
-    h = float(h_over_dx)
-    norm = k.norm(h, 2)
-    reach = k.support * h
-    n = int(math.ceil(reach)) + 1
-    ratios, sums = [], []
-    for s in np.arange(offsets) / offsets:
-        lap = dens = 0.0
-        for i in range(-n, n + 1):
-            shift = i * s - math.floor(i * s)
-            for j in range(-n - 1, n + 2):
-                y = j + shift
-                r = math.hypot(i, y)
-                if r < reach:
-                    dens += k.w(r, 1.0 / h, norm)
-                    if r > 0:
-                        lap += (-0.5 * i * i) * k.dwdr(r, 1.0 / h, norm) / r
-        ratios.append(2.0 * lap)
-        sums.append(dens)
-    return min(ratios), max(ratios), min(sums), max(sums)
-
-
 def nu_eff_errors(rec, out_dir):
     """Max error at each output time against Eq. (8) evaluated with nu_eff instead of nu."""
     from parsph.analytic import couette_velocity
@@ -290,13 +240,13 @@ def nu_eff_errors(rec, out_dir):
     if not os.path.exists(path):
         return {}
     c = rec["choices"]
+    cfg = build_config(c)  # the run's own physics (its "set" overrides included)
     ratio = viscosity_bias(c["kernel"], c["h_over_dx"])
     d = np.load(path)
-    nu, L = 1.75e-4, 0.01
     out = {}
     for t, vy in zip(d["t"], d["vy"]):
-        ref = couette_velocity(d["x"], float(t), nu * ratio, L, 1.0)
-        out[round(float(t), 6)] = float(np.nanmax(np.abs(vy - ref)))
+        ref = couette_velocity(d["x"], float(t), cfg.nu * ratio, cfg.L, cfg.V_w)
+        out[round(float(t), 6)] = float(np.nanmax(np.abs(vy - ref)) / abs(cfg.V_w))
     return out
 
 

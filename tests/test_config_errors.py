@@ -50,7 +50,7 @@ CASES = {
     "set_no_equals": (None, ["--set", "numerics.Nx"], ["numerics.Nx"]),
     "nonexistent_file": ("MISSING", [], ["no_such_run.toml", "cannot read"]),
     "existing_output": ("EXISTING", [], ["couette_paper_0000.h5", "exists", "--force"]),
-    # output.check_every moved to [checks] every: the old key is now unknown
+    # the check interval is [checks] every; output.check_every is no key of the run file
     "old_check_every": (None, ["--set", "output.check_every=5"], ["output.check_every", "unknown key"]),
     "checks_every_zero": (None, ["--set", "checks.every=0"], ["checks.every", "at least 1"]),
     "checks_theta_change_negative": (None, ["--set", "checks.theta_change=-0.1"],
@@ -62,9 +62,9 @@ CASES = {
     "dt_string": (None, ["--set", "numerics.dt=fast"], ["numerics.dt", "number"]),
     "pressure_form_unknown": (None, ["--set", "numerics.pressure_form=exact"],
                               ["numerics.pressure_form", "consistent"]),
-    # 2h = 0.02 m is wider than both L and L_y: h is the cause (was blamed on domain.Ly)
+    # 2h = 0.02 m is wider than both L and L_y: h is the cause, not domain.Ly
     "h_too_large": (None, ["--set", "numerics.h=0.01"], ["error: numerics.h:", "too large", "2h = 0.02 m"]),
-    # the support does not reach the next particle (was "0 layers ... need at least 0")
+    # the support does not reach the next particle: h / dx is the cause, not the wall layers
     "h_over_dx_too_small": (edit(r"^h = 2.5e-4 .*$", "h_over_dx = 0.3"), [],
                             ["error: numerics.h_over_dx:", "too small", "h / dx > 0.5"]),
 }

@@ -1,4 +1,19 @@
-"""Short transient Couette runs with the real solver on one rank (COMM_SELF), against Eq. (8)."""
+"""Short transient Couette runs with the real solver on one rank (COMM_SELF), against Eq. (8).
+
+The error of the paper's numerics is first order in dx: the Morris cap beta_max = 1.5 is
+active on the lattice (tests/test_accuracy_order.py says why), so the ghost velocities act
+as a slip over a length of order dx at the moving plate, where the shear is largest. Two
+statements follow, and are what these tests hold the solver to:
+
+* the error falls as dx between two resolutions (the two-point order, see
+  test_error_falls_at_first_order);
+* a wall displaced by less than half a particle spacing, dx/2 (the wall particles start
+  half a spacing beyond each plate), moves the solution by at most (dx/2) |dv/dx|: the
+  max error is below (dx/2) max|dv/dx| / V_w, and the rms error below (dx/2) times the
+  rms of dv/dx over the profile's bins, dv/dx from Eq. (8) (:func:`shear`).
+"""
+import math
+
 import numpy as np
 import pytest
 from mpi4py import MPI
@@ -10,6 +25,36 @@ from parsph.solver import Simulation
 from conftest import PAPER_TOML, paper_raw
 
 T_END = 0.02  # s: 2,000 steps of the paper's dt = 1e-5 s
+
+
+def shear(x, t, nu, L, V_w):
+    """dv_y/dx of Eq. (8), term by term: V_w/L + sum_n (2 V_w/L) (-1)^n cos(n pi x/L) exp(-n^2 pi^2 nu t/L^2)."""
+    a = math.pi ** 2 * nu * t / L ** 2
+    n = np.arange(1, int(math.sqrt(40.0 / a)) + 2)  # exp(-n^2 a) < exp(-40) beyond
+    terms = (2.0 * V_w / L) * np.where(n % 2 == 0, 1.0, -1.0) * np.exp(-n * n * a)
+    return V_w / L + np.cos(np.multiply.outer(np.asarray(x, float), n) * (math.pi / L)) @ terms
+
+
+def test_shear_is_the_derivative_of_eq8():
+    """:func:`shear` against central differences of Eq. (8), and at the plates against the image sum's
+    closed form dv/dx = (V_w / sqrt(pi nu t)) sum_k [exp(-((2k+1)L - x)^2 / 4nu t) + exp(-((2k+1)L + x)^2 / 4nu t)]."""
+    nu, L, V_w = 1.75e-4, 0.01, 1.0
+    x = np.linspace(0.0005, 0.0095, 7)
+    for t in (1e-3, 0.02, 0.3):
+        e = 1e-7
+        fd = (couette_velocity(x + e, t, nu, L, V_w) - couette_velocity(x - e, t, nu, L, V_w)) / (2 * e)
+        np.testing.assert_allclose(shear(x, t, nu, L, V_w), fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+        ends = np.array([0.0, L])
+        s = 2.0 * math.sqrt(nu * t)
+        images = sum(np.exp(-(((2 * k + 1) * L - ends) / s) ** 2) + np.exp(-(((2 * k + 1) * L + ends) / s) ** 2)
+                     for k in range(50)) * V_w / math.sqrt(math.pi * nu * t)
+        np.testing.assert_allclose(shear(ends, t, nu, L, V_w), images, rtol=1e-10, atol=1e-10 * V_w / L)
+
+
+def slip_estimate(cfg, x, t):
+    """(max, rms) over the bins x of (dx/2) |dv/dx| / V_w: the error of a wall misplaced by dx/2."""
+    g = 0.5 * cfg.dx * np.abs(shear(x, t, cfg.nu, cfg.L, cfg.V_w)) / abs(cfg.V_w)
+    return g.max(), math.sqrt(np.mean(g ** 2))
 
 
 def run_couette(Nx, **numerics):
@@ -66,26 +111,38 @@ def test_paper_resolution_error(fine):
     assert emax == pytest.approx(e.max(), rel=1e-12)
     assert erms == pytest.approx(np.sqrt(np.mean(e ** 2)), rel=1e-12)
     assert counts.sum() == cfg.Nx * cfg.Ny  # no fluid particle lost
-    # Tolerances: the run gives max 0.0116 and rms 0.0046 (of V_w) at t = 0.02 s; 0.015 and
-    # 0.006 leave ~25% headroom for harmless changes (summation order, integrator details)
-    # while a wrong viscosity (nu off by 10%) or wall treatment fails them.
-    assert emax < 0.015
-    assert erms < 0.006
+    # at most the error of a wall misplaced by dx/2 (module docstring): 0.030 and 0.015 here
+    # (measured: 0.0116 and 0.0046)
+    smax, srms = slip_estimate(cfg, x, t)
+    assert emax < smax and erms < srms, (emax, smax, erms, srms)
     # the flow has developed: the layer next to the plate moves; the quarter by the fixed plate,
     # 4 diffusion lengths sqrt(nu t) = 1.9 mm away, barely does (Eq. (8): erfc(2) = 0.005)
     assert vy[-1] > 0.5 * cfg.V_w
     assert np.all(np.abs(vy[: cfg.Nx // 4]) < 0.01 * cfg.V_w)
 
 
-def test_coarse_is_worse(fine, coarse):
-    """Nx = 20 (dx = 5e-4 m, h = 6.25e-4 m) against Nx = 50 at the same time and dt:
-    the ordering of both error norms, with a 1.5x margin (measured: about 2.6x and 3x)."""
-    ef = fine[1][1][-1]
-    ec = coarse[1][1][-1]
-    assert ec[1] > 1.5 * ef[1]  # rms
-    assert ec[0] > 1.5 * ef[0]  # max
-    # and the coarse run still follows the solution (not a blow-up)
-    assert ec[0] < 0.06
+def test_error_falls_at_first_order(fine, coarse):
+    """Nx = 20 (dx = 5e-4 m) against Nx = 50 (dx = 2e-4 m) at t = 0.02 s, the same dt.
+
+    The max error's two-point order is 1 (the slip at the moving plate, module docstring).
+    The rms error's lies between 1, for an error spread over the whole shear layer, and
+    1.5, for one confined to a layer of width O(h) at the plate (its rms over the profile
+    scales as sqrt(h / L) times the max). The margin of 0.25 is empirical: the share of the
+    second-order terms (the kernel's smoothing) at Nx = 20 is not known a priori (measured
+    orders: 1.03 and 1.18). A viscosity off by 10% (k = 1.1 against the reference's 1.0)
+    adds an error that does not fall with dx: measured orders 0.28 and -0.20.
+    """
+    cf, pf = fine
+    cc, pc = coarse
+    (emax_f, erms_f), (emax_c, erms_c) = pf[1][-1], pc[1][-1]
+    p_max = math.log(emax_c / emax_f) / math.log(cc.dx / cf.dx)
+    p_rms = math.log(erms_c / erms_f) / math.log(cc.dx / cf.dx)
+    assert 1.0 - 0.25 <= p_max <= 1.0 + 0.25, (p_max, emax_c, emax_f)
+    assert 1.0 - 0.25 <= p_rms <= 1.5 + 0.25, (p_rms, erms_c, erms_f)
+    # and the coarse run, too, is within the error of a wall misplaced by dx/2 (0.075, 0.037 here)
+    t, x = pc[1][0], pc[1][1]
+    smax, srms = slip_estimate(cc, x, t)
+    assert emax_c < smax and erms_c < srms, (emax_c, smax, erms_c, srms)
 
 
 def test_error_decreases_in_time(fine):

@@ -26,23 +26,24 @@ Properties:
   read-only parent, run as root through ``setpriv`` without
   CAP_DAC_OVERRIDE): exit code 2, exactly one stderr line
   ``parsph: error: ...`` naming the key (or the directory), no traceback,
-  no MPI_ABORT, within a bounded time, and a refused run file leaves the
+  no MPI_ABORT, no hang (HANG_GUARD), and a refused run file leaves the
   output directory untouched. A too large Nx is refused with a memory
   estimate before anything is allocated; a missing output directory is
   created; an existing output is replaced only with ``--force``.
   Subprocesses run under an 8 GB RLIMIT_AS.
 
 Hypothesis runs derandomized (the same examples every time, no example
-database written), with a deadline per example (10 s in process, 60 s /
-120 s on the command line). Cases per run, by design (``max_examples``
-below; a property that finds a bug stops early and shrinks, so a failing
-run tries fewer): 3 150 examples of the 10 in-process properties (2 950
-validation, 200 memory check), 20 of the command-line property (12 on 1
-rank, 8 under ``mpirun -n 2``), 12 extreme-number regressions, 5 fixed
-documents, 19 fixed command lines on 1 rank and 5 under ``mpirun -n 2``:
-3 211 in all, as counted by the run of 2026-11-22 08:06 UTC (about 60 s
-of its 160 s went to the command-line property). ``test_report_case_counts``
-prints the counts with ``-s``.
+database written) and without a deadline per example: how long an example
+takes depends on the machine's load, so it is no test of validation. A launched
+command that runs into HANG_GUARD is killed and fails its test (a hang is a
+bug; slowness is not). Cases per run, by design (``max_examples`` below; a
+property that finds a bug stops early and shrinks, so a failing run tries
+fewer): 3 150 examples of the 10 in-process properties (2 950 validation, 200
+memory check), 20 of the command-line property (12 on 1 rank, 8 under
+``mpirun -n 2``), 12 extreme-number regressions, 5 fixed documents, 19 fixed
+command lines on 1 rank and 5 under ``mpirun -n 2``: 3 211 in all.
+``scripts/fuzz_counts.py`` runs this module and prints the cases each
+property tried (COUNTS).
 """
 import copy
 import datetime
@@ -75,12 +76,10 @@ NUMERIC_KEYS = [(s, k) for s, k in ALL_KEYS if SCHEMA[s][k].kind in ("float", "i
 COUNTS = Counter()
 
 
-def fuzz_settings(n, seconds=10):
-    """``n`` derandomized examples; one that takes more than ``seconds`` fails (validation
-    takes milliseconds: the deadline is far above it, for a loaded machine, and catches a
-    run file that makes validation loop or allocate)."""
-    return settings(max_examples=n, derandomize=True, database=None,
-                    deadline=datetime.timedelta(seconds=seconds),
+def fuzz_settings(n):
+    """``n`` derandomized examples and no deadline: an example's time depends on the machine's load
+    (and a deadline is checked after the example returns, so it would not catch a hang either)."""
+    return settings(max_examples=n, derandomize=True, database=None, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
                                            HealthCheck.data_too_large])
 
@@ -351,8 +350,8 @@ def test_random_bytes_as_a_run_file(blob):
             assert "\n" not in str(e) and e.key, repr(str(e))
 
 
-# Extreme numbers found by the properties above (each crashed build() with the exception named);
-# every one must be a ConfigError naming one of the keys listed.
+# Extreme numbers, with the exception each raises in build()'s arithmetic unless validation refuses
+# it first; every one must be a ConfigError naming one of the keys listed.
 EXTREME = {
     "t_end_int_beyond_float": ({"output": {"t_end": 10 ** 400}}, {"output.t_end"}),  # OverflowError in _typed
     "Nx_int_beyond_float": ({"numerics": {"Nx": 10 ** 400}}, {"numerics.Nx"}),  # OverflowError: L / Nx
@@ -413,6 +412,7 @@ def test_nan_and_inf_in_the_toml_text_name_the_key():
 
 launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
 RLIMIT_AS = 8 * 2 ** 30  # a run that allocates before refusing fails (exit 1) instead of swapping the machine
+HANG_GUARD = 300  # s: a launched command still running after this is killed and fails its test
 SMALL = ("output.t_end=0.0001", "output.times=[0.0001]", "domain.Ly=0.002")
 
 
@@ -420,7 +420,7 @@ def _limit():
     resource.setrlimit(resource.RLIMIT_AS, (RLIMIT_AS, RLIMIT_AS))
 
 
-def run_limited(cmd, timeout=90, prefix=()):
+def run_limited(cmd, timeout=HANG_GUARD, prefix=()):
     import subprocess
     import time
     t0 = time.monotonic()
@@ -492,7 +492,6 @@ def test_cli_bad_run_file(tmp_path, case):
     r = run_limited(C.parsph("run", path, "--out", out, *extra))
     COUNTS["cli 1 rank"] += 1
     check_bad(r, key, word, 0)
-    assert r.elapsed < 60
     assert not out.exists() or not os.listdir(out), "a refused run wrote output"
 
 
@@ -507,7 +506,7 @@ def test_cli_missing_run_file(tmp_path):
 @launches
 def test_cli_creates_a_missing_output_directory(tmp_path):
     out = tmp_path / "a" / "b" / "c"
-    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", *C.sets(*SMALL)), timeout=120)
+    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", *C.sets(*SMALL)))
     COUNTS["cli 1 rank"] += 1
     assert r.returncode == 0, r
     assert C.h5_files(out) == [f"{C.STEM}_0000.h5"], os.listdir(out)
@@ -530,7 +529,7 @@ def test_cli_force_overwrites_existing_output(tmp_path):
     out = tmp_path / "out"
     first = C.sets(*SMALL, "material.k=1.0")
     second = C.sets(*SMALL, "material.k=1.5")
-    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", *first), timeout=120)
+    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", *first))
     assert r.returncode == 0, r
     name = out / f"{C.STEM}_0000.h5"
     before = name.read_bytes()
@@ -540,7 +539,7 @@ def test_cli_force_overwrites_existing_output(tmp_path):
     check_bad(r, str(name), "--force", 0)
     assert name.read_bytes() == before, "the output changed without --force"
 
-    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", "--force", *second), timeout=120)
+    r = run_limited(C.run_cmd(0, "--out", out, "--quiet", "--force", *second))
     COUNTS["cli 1 rank"] += 1
     assert r.returncode == 0 and "Traceback" not in r.stderr, r
     assert C.h5_files(out) == [name.name] and not C.h5_files(out, part=True), os.listdir(out)
@@ -597,13 +596,12 @@ def test_cli_bad_input_under_mpirun(tmp_path, case):
     path = tmp_path / "bad.toml"
     path.write_text(text)
     try:
-        r = run_limited(C.mpirun(2, C.parsph("run", path, "--out", out, *extra)), timeout=120, prefix=prefix)
+        r = run_limited(C.mpirun(2, C.parsph("run", path, "--out", out, *extra)), prefix=prefix)
     finally:
         if out.is_dir():
             out.chmod(0o755)
     COUNTS["cli mpirun -n 2"] += 1
     check_bad(r, key, word, 2)
-    assert r.elapsed < 90
 
 
 # ---- the command line under hypothesis ---------------------------------------------------------
@@ -717,15 +715,13 @@ def _cli_property(ranks, case, example):
             ro.chmod(0o555)
         prefix = _unprivileged() if "read-only" in out_kind else ()
         cmd = C.parsph("run", path, "--out", out)
-        limit = 30 if ranks == 1 else 60  # seconds to the error; run_limited gives up at twice that
         try:
-            r = run_limited(C.mpirun(ranks, cmd) if ranks > 1 else cmd, timeout=2 * limit, prefix=prefix)
+            r = run_limited(C.mpirun(ranks, cmd) if ranks > 1 else cmd, prefix=prefix)
         finally:
             if ro.exists():
                 ro.chmod(0o755)
         COUNTS[f"cli property, {'1 rank' if ranks == 1 else f'mpirun -n {ranks}'}"] += 1
         check_bad(r, str(out) if key is None else key, word, 0 if ranks == 1 else ranks)
-        assert r.elapsed < limit, f"{r.elapsed:.1f} s to refuse: {r}"
         if key is not None:  # a bad run file is refused before the output directory is touched
             if out_kind in ("missing", "missing under read-only"):
                 assert not out.exists(), f"{out} created for a refused run"
@@ -735,17 +731,17 @@ def _cli_property(ranks, case, example):
 
 @launches
 @pytest.mark.parametrize("case", CLI_CASES)
-@fuzz_settings(3, 60)
+@fuzz_settings(3)
 @given(data=st.data())
 def test_cli_property_one_rank(case, data):
     """Bad run files and output directories drawn from the strategies above, on ``parsph run``:
-    exit 2, one ``parsph: error:`` line naming the key, no traceback, in bounded time."""
+    exit 2, one ``parsph: error:`` line naming the key, no traceback, no hang."""
     _cli_property(1, case, data.draw(bad_runs(case)))
 
 
 @launches
 @pytest.mark.parametrize("case", CLI_CASES)
-@fuzz_settings(2, 120)
+@fuzz_settings(2)
 @given(data=st.data())
 def test_cli_property_two_ranks(case, data):
     """The same under ``mpirun -n 2``: every rank ends alike, no MPI_Abort, no hang."""
@@ -817,9 +813,3 @@ def test_memory_check_for_huge_particle_counts(data):
             COUNTS["memory check (stubbed memory), accepted"] += 1
             assert need <= 0.8 * mem * hosts, f"accepted: {need:.3g} B of {mem * hosts:.3g} B"
 
-
-def test_report_case_counts():
-    """Not a check: prints how many cases each property tried (run with -s)."""
-    for what, n in sorted(COUNTS.items()):
-        print(f"fuzz cases: {what}: {n}")
-    print(f"fuzz cases: total: {sum(COUNTS.values())}")

@@ -19,9 +19,11 @@ what the ranks see):
   the signal to mpirun); the ranks then need about 1.5 s more to exit
   (teardown), so mpirun's SIGKILL at 2.0 s ends them after the snapshot but
   before they exit by themselves. A step plus an output that take longer
-  than one second (large runs) would lose the final snapshot
-  (``--mca odls_base_sigkill_timeout N`` lengthens the grace). The ranks have
-  process groups of their own, so a terminal's Ctrl-C reaches only ``mpirun``.
+  than one second (large runs, or a loaded machine) would lose the final
+  snapshot (``--mca odls_base_sigkill_timeout N`` lengthens the grace; the
+  tests set it to MPIRUN_GRACE, so that a slow machine does not fail them).
+  The ranks have process groups of their own, so a terminal's Ctrl-C reaches
+  only ``mpirun``.
 * SIGINT/SIGTERM sent to the ranks themselves (a batch system, ``kill``):
   parsph exits 130 / 143 on every rank and ``mpirun`` passes the code on.
 * SIGKILL to ``mpirun``'s process group does not reach the ranks (they lived
@@ -29,10 +31,13 @@ what the ranks see):
 
 Long runs: t_end = 0.5 s on the short box (50 000 steps, minutes), with no
 output before the end, stopped after the first progress line. How many steps
-run before the ranks see the signal depends on the machine (mpirun waits one
-second: 800 to 1 400 steps were seen), so each restart goes to a time just
+run before the ranks see the signal depends on the machine (and mpirun
+passes it on MPIRUN_GRACE late), so each restart goes to a time just
 past the step where its run stopped and is compared with an uninterrupted
 1-rank run to that same time.
+
+No test asserts how fast a run stops: the waits below are hang guards, set for
+a slow, loaded CI machine. ``scripts/signal_timing.py`` measures the times.
 """
 import os
 import re
@@ -54,27 +59,14 @@ RESUME_STEPS = 100  # a restart runs this many steps past the stop
 STOPPED = re.compile(r"^parsph: (SIG[A-Z]+|signal): stopped at step (\d+), t = (\S+) s; "
                      r"the last output is a restart point$")
 CODE = {"SIGINT": 130, "SIGTERM": 143}
-SIGNAL_TIMEOUT = 20  # seconds from the signal to the end of every process
-START_TIMEOUT = 90  # seconds to the first progress line (a cold numba cache compiles first)
-OBSERVED = []  # (case, mpirun exit code, seconds from signal to exit): printed with -s
+HANG_GUARD = 300  # s: from the signal to the end of every process, and from the start to the first
+                  # progress line (a cold numba cache compiles first); beyond it the test fails as a hang
+MPIRUN_GRACE = 10  # s: mpirun's delay from a signal to SIGTERM to the ranks, and on to SIGKILL
+                   # (odls_base_sigkill_timeout; 1 s by default, in which a loaded machine may not write)
 
 
 def name(k):
     return f"{C.STEM}_{k:04d}.h5"
-
-
-def rank_pids(mpirun_pid):
-    """{rank: pid} of the parsph processes under mpirun (from /proc/PID/environ)."""
-    out = {}
-    for p in C.descendants(mpirun_pid):
-        try:
-            with open(f"/proc/{p}/environ", "rb") as f:
-                env = dict(kv.split(b"=", 1) for kv in f.read().split(b"\0") if b"=" in kv)
-        except OSError:
-            continue
-        if b"OMPI_COMM_WORLD_RANK" in env:
-            out[int(env[b"OMPI_COMM_WORLD_RANK"])] = p
-    return out
 
 
 def resume_sets(step):
@@ -88,25 +80,22 @@ def reference(tmp_path_factory):
     """reference(step): an uninterrupted 1-rank run to RESUME_STEPS past ``step`` (the restarts must equal it)."""
     def run_to(step):
         d = tmp_path_factory.mktemp("interrupt_ref")
-        r = C.run(C.run_cmd(0, "--out", d, "--quiet", *resume_sets(step)), timeout=300)
+        r = C.run(C.run_cmd(0, "--out", d, "--quiet", *resume_sets(step)), timeout=HANG_GUARD)
         assert r.returncode == 0, r
         return C.read_final(d / name(0))
     return run_to
 
 
-def interrupted_run(ranks, out, send, wait_for=None):
-    """Start a long run, wait for its first progress line, call send(live); return (result, seconds after send)."""
-    live = C.Live(C.run_cmd(ranks, "--out", out, *C.sets(*LONG)))
+def interrupted_run(ranks, out, send, **env):
+    """Start a long run, wait for its first progress line, call send(live); return the result."""
+    live = C.Live(C.run_cmd(ranks, "--out", out, *C.sets(*LONG)), **env)
     try:
-        started = live.wait_for(wait_for or (lambda: any(ln.startswith("  step") for ln in live.out)),
-                                START_TIMEOUT)
-        assert started, f"no progress line within {START_TIMEOUT} s: {live.finish(1)[0]}"
-        t_sig = time.monotonic()
+        started = live.wait_for(lambda: any(ln.startswith("  step") for ln in live.out), HANG_GUARD)
+        assert started, f"no progress line within {HANG_GUARD} s: {live.finish(1)[0]}"
         send(live)
-        res, timed_out = live.finish(SIGNAL_TIMEOUT)
-        took = time.monotonic() - t_sig
-        assert not timed_out, f"still running {SIGNAL_TIMEOUT} s after the signal (killed):\n{res}"
-        return res, took
+        res, timed_out = live.finish(HANG_GUARD)
+        assert not timed_out, f"still running {HANG_GUARD} s after the signal (killed):\n{res}"
+        return res
     finally:
         live.kill()
 
@@ -134,7 +123,7 @@ def check_stopped(res, out, signame=None):
 
 def resume(ranks, out, reference, step):
     """--restart from the stopped run's directory, RESUME_STEPS on; equal to the uninterrupted run."""
-    r = C.run(C.run_cmd(ranks, "--restart", out, "--quiet", *resume_sets(step)), timeout=300)
+    r = C.run(C.run_cmd(ranks, "--restart", out, "--quiet", *resume_sets(step)), timeout=HANG_GUARD)
     assert r.returncode == 0, r
     assert C.h5_files(out) == [name(0), name(1)], os.listdir(out)
     C.assert_same_particles(C.read_final(out / name(1)), reference(step), "stopped run continued with --restart")
@@ -147,8 +136,7 @@ def resume(ranks, out, reference, step):
 def test_signal_to_a_one_rank_run(tmp_path, reference, signame):
     """Without mpirun: exit 130 / 143, one line naming the signal, a final snapshot; then restart."""
     out = tmp_path / "run"
-    res, took = interrupted_run(0, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
-    OBSERVED.append((f"1 rank, {signame} to parsph", res.returncode, took))
+    res = interrupted_run(0, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
     assert res.returncode == CODE[signame], res
     step = check_stopped(res, out, signame)
     assert C.stderr_lines(res.stderr) == C.parsph_lines(res.stderr), res
@@ -160,14 +148,14 @@ def test_signal_to_a_one_rank_run(tmp_path, reference, signame):
 def test_signal_to_mpirun(tmp_path, reference, signame):
     """SIGINT / SIGTERM to ``mpirun -n 2``: every rank finishes its step and writes the final snapshot.
 
-    mpirun turns the signal into SIGTERM to the ranks one second later and
-    SIGKILLs them one second after that: the snapshot must be written within
-    that second. mpirun's exit code is its own (1 with Open MPI 4.1): only
+    mpirun turns the signal into SIGTERM to the ranks MPIRUN_GRACE later and
+    SIGKILLs them MPIRUN_GRACE after that: the snapshot must be written within
+    that grace. mpirun's exit code is its own (1 with Open MPI 4.1): only
     non-zero is asserted.
     """
     out = tmp_path / "run"
-    res, took = interrupted_run(2, out, lambda live: live.p.send_signal(getattr(C.signal, signame)))
-    OBSERVED.append((f"2 ranks, {signame} to mpirun", res.returncode, took))
+    res = interrupted_run(2, out, lambda live: live.p.send_signal(getattr(C.signal, signame)),
+                          OMPI_MCA_odls_base_sigkill_timeout=MPIRUN_GRACE)
     assert res.returncode != 0, res
     step = check_stopped(res, out)  # the ranks got SIGTERM from mpirun, whatever mpirun got
     resume(2, out, reference, step)
@@ -179,13 +167,12 @@ def test_sigterm_to_every_rank(tmp_path, reference):
     out = tmp_path / "run"
 
     def send(live):
-        pids = rank_pids(live.p.pid)
+        pids = C.rank_pids(live.p.pid)
         assert sorted(pids) == [0, 1], pids
         for p in pids.values():
             os.kill(p, C.signal.SIGTERM)
 
-    res, took = interrupted_run(2, out, send)
-    OBSERVED.append(("2 ranks, SIGTERM to each rank", res.returncode, took))
+    res = interrupted_run(2, out, send)
     assert res.returncode == 143, res
     step = check_stopped(res, out, "SIGTERM")
     resume(1, out, reference, step)
@@ -201,12 +188,11 @@ def test_sigint_to_one_rank_stops_every_rank_alike(tmp_path, reference):
     out = tmp_path / "run"
 
     def send(live):
-        pids = rank_pids(live.p.pid)
+        pids = C.rank_pids(live.p.pid)
         assert sorted(pids) == [0, 1], pids
         os.kill(pids[1], C.signal.SIGINT)
 
-    res, took = interrupted_run(2, out, send)
-    OBSERVED.append(("2 ranks, SIGINT to rank 1 only", res.returncode, took))
+    res = interrupted_run(2, out, send)
     step = check_stopped(res, out, "SIGINT")
     assert res.returncode == 130, res
     resume(2, out, reference, step)
@@ -264,10 +250,10 @@ def test_sigkill_mid_write_leaves_only_whole_outputs(tmp_path, restart_ranks):
         live = C.Live(C.run_cmd(2, "--out", out, "--quiet", *C.sets(*KILLED)))
         try:
             # a few complete outputs first, so that several earlier snapshots are checked
-            assert live.wait_for(lambda: out.is_dir() and len(C.h5_files(out)) >= KILL_AFTER, START_TIMEOUT), \
-                f"no {KILL_AFTER} outputs within {START_TIMEOUT} s: {live.finish(1)[0]}"
+            assert live.wait_for(lambda: out.is_dir() and len(C.h5_files(out)) >= KILL_AFTER, HANG_GUARD), \
+                f"no {KILL_AFTER} outputs within {HANG_GUARD} s: {live.finish(1)[0]}"
             pids = C.descendants(live.p.pid) + [live.p.pid]  # mpirun and the ranks, found before the race
-            seen, end = [], time.monotonic() + 30
+            seen, end = [], time.monotonic() + HANG_GUARD
             while not seen and time.monotonic() < end and live.p.poll() is None:
                 seen = [f for f in os.listdir(out) if f.endswith(".h5.part")]
                 if not seen:
@@ -277,16 +263,15 @@ def test_sigkill_mid_write_leaves_only_whole_outputs(tmp_path, restart_ranks):
                     os.kill(p, C.signal.SIGKILL)
                 except ProcessLookupError:
                     pass
-            assert seen, f"no .part file seen within 30 s (run ended: {live.p.poll() is not None})"
-            live.finish(30)
-            end = time.monotonic() + 10
+            assert seen, f"no .part file seen within {HANG_GUARD} s (run ended: {live.p.poll() is not None})"
+            live.finish(HANG_GUARD)
+            end = time.monotonic() + HANG_GUARD
             while C.alive(pids) and time.monotonic() < end:
                 time.sleep(0.05)
             assert not C.alive(pids), f"processes alive after SIGKILL: {C.alive(pids)}"
         finally:
             live.kill()
         parts = C.h5_files(out, part=True)
-        OBSERVED.append((f"SIGKILL on seeing {seen[0]} (try {attempt})", len(C.h5_files(out)), parts))
         if parts:  # the kill landed inside a write
             break
     else:
@@ -311,18 +296,12 @@ def test_sigkill_mid_write_leaves_only_whole_outputs(tmp_path, restart_ranks):
     t_end = round((int(last["attrs"]["step"]) + 20) * C.DT, 10)
     fresh = tmp_path / "continued"
     r = C.run(C.run_cmd(restart_ranks, "--restart", out, "--out", fresh, "--quiet",
-                        *C.sets(*C.SHORT, f"output.t_end={t_end!r}", f"output.times=[{t_end!r}]")), timeout=120)
+                        *C.sets(*C.SHORT, f"output.t_end={t_end!r}", f"output.times=[{t_end!r}]")), timeout=HANG_GUARD)
     assert r.returncode == 0, r
     new = f"{C.STEM}_{len(files):04d}.h5"
     assert C.h5_files(fresh) == [new], os.listdir(fresh)
     with h5py.File(fresh / new, "r") as f:
         assert int(f.attrs["step"]) == int(last["attrs"]["step"]) + 20
-
-
-def test_print_observations():
-    """Not a check: prints what the signal tests saw (run with -s)."""
-    for row in OBSERVED:
-        print("observed:", row)
 
 
 # ---- in process on COMM_WORLD (pytest-mpi) -------------------------------------------------

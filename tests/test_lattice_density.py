@@ -92,7 +92,7 @@ def roundoff_bound_ax(cfg):
 
     At t = 0 only the pressure term of Eq. (5) has an x part (v_ij is along y), and on the exact
     lattice its pair terms t_j = c f(theta_i, theta_j) F(r_j) X_j (F = (dW/dr)/r, X_j = x_i - x_j,
-    c = m / rho_s^2) cancel in mirror pairs -- next to a wall too, now that the wall particles
+    c = m / rho_s^2) cancel in mirror pairs -- next to a wall too, since the wall particles
     hold the lattice's own summed density. In floating point (u = eps/2) three things break the
     cancellation:
 
@@ -160,7 +160,8 @@ def test_wall_density_is_the_lattice_sum(paper_t0):
     walls = ps.kind[:n] != FLUID
     assert walls.sum() == 2 * cfg.layers * cfg.Ny
     np.testing.assert_allclose(ps.theta[:n][walls], theta_lat, rtol=1e-14)
-    # not theta0 any more: the lattice sum of the cubic spline at h = 1.25 dx is theta0 (1 - 5.5e-4)
+    # the wall holds the fluid's summed lattice density, which is not theta0: the lattice sum of the
+    # cubic spline at h = 1.25 dx is theta0 (1 - 5.5e-4)
     assert theta_lat / cfg.theta0 - 1 == pytest.approx(-5.515e-4, rel=1e-3)
 
 
@@ -187,10 +188,10 @@ def test_initial_accelerations(paper_t0):
 
     - a_x (only the pressure term has an x part at t = 0: v_ij is along y): on the uniform
       lattice the pair terms cancel by mirror symmetry, in every column. Next to the walls this
-      holds since the wall particles carry the lattice's summed density: before, they held
-      theta0 while the fluid's summation density is theta0 (1 - 5.5e-4), and the wall pushed
+      holds because the wall particles carry the lattice's summed density. Walls held at theta0
+      would not do: the fluid's summation density is theta0 (1 - 5.5e-4), and such walls push
       the fluid away with a_x = 0.29 m/s^2 (6.7e-5 of the viscous scale a_v = nu V_w / dx^2 =
-      4375 m/s^2) in the first column. Now |a_x| must stay below the round-off bound of
+      4375 m/s^2) in the first column. |a_x| must stay below the round-off bound of
       :func:`roundoff_bound_ax` (1.7e-10 m/s^2, i.e. 4e-14 a_v; measured: 3.5e-12 m/s^2)
       in every column, wall-adjacent ones included, and equal the brute-force Eq. (5) (~0).
     - a_y: zero except within 2h of the moving plate, where the viscous term drags the fluid
@@ -203,7 +204,7 @@ def test_initial_accelerations(paper_t0):
     bound, S_x = roundoff_bound_ax(cfg)
     # the bound is round-off relative to both the pressure terms' size and the viscous scale ...
     assert bound < 1e-11 * S_x and bound < 1e-13 * a_v, (bound, S_x, a_v)
-    # ... and the old wall push (0.29 m/s^2, 2.7e-2 m/s^2 in the second column) is far above it
+    # ... and the push of walls held at theta0 (0.29 m/s^2, 2.7e-2 m/s^2 in the second column) is far above it
     assert 0.02 > 1e6 * bound
     near_wall = (col < 2) | (col > cfg.Nx - 3)
     assert ax[near_wall].max() <= bound, (ax[near_wall].max(), bound)

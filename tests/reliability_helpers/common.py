@@ -150,6 +150,20 @@ def descendants(pid):
     return out
 
 
+def rank_pids(mpirun_pid):
+    """{rank: pid} of the parsph processes under mpirun (from /proc/PID/environ)."""
+    out = {}
+    for p in descendants(mpirun_pid):
+        try:
+            with open(f"/proc/{p}/environ", "rb") as f:
+                env = dict(kv.split(b"=", 1) for kv in f.read().split(b"\0") if b"=" in kv)
+        except OSError:
+            continue
+        if b"OMPI_COMM_WORLD_RANK" in env:
+            out[int(env[b"OMPI_COMM_WORLD_RANK"])] = p
+    return out
+
+
 def kill_tree(pid, sig=signal.SIGKILL):
     """Send ``sig`` to ``pid`` and all its descendants at once (each by id); return the ids."""
     pids = descendants(pid) + [pid]
