@@ -210,7 +210,8 @@ def _run(comm, args, say, signals):
     total = sim.wall_time
     steps_done = sim.step - step0
     rate = sim.n_total * steps_done / total if total > 0 else float("nan")
-    say(f"done: {steps_done} steps in {total:.1f} s ({rate:.3g} particle-steps/s)")
+    say(f"done: {steps_done} steps in {total:.1f} s ({rate:.3g} particle-steps/s; "
+        f"neighbour list built {sim.rebuilds} times)")
     if comm.rank == 0 and output_files(out_dir):
         print_table(out_dir)
     return 0

@@ -48,6 +48,8 @@ from .kernels import kernel_w_f
 from .particles import FLUID
 
 ON, OFF = (1,), ()
+# columns of the per-particle row the pair loops read (``fields``)
+VX, VY, VZ, THETA, INV_RHO, INV_THETA, PRESS = 0, 1, 2, 3, 4, 5, 6
 
 
 def switch(flag):
@@ -160,11 +162,11 @@ def particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_
         theta[k] = th
         for d in range(dim):
             fields[k, d] = vel[k, d]
-        fields[k, 3] = th
-        fields[k, 4] = 1.0 / r
-        fields[k, 5] = 1.0 / th
+        fields[k, THETA] = th
+        fields[k, INV_RHO] = 1.0 / r
+        fields[k, INV_THETA] = 1.0 / th
         if len(pressure):
-            fields[k, 6] = pressure_factor(th, r, G_a, G_b, consistent)
+            fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent)
 
 
 # ---- Eq. (5) ------------------------------------------------------------------------------------
@@ -207,13 +209,13 @@ def momentum_serial(order, pstart, pj, n, fp, pos, mass, kind, fields, need, n_o
         xi = pos[i, 0]
         yi = pos[i, 1]
         zi = pos[i, 2] if len(three_d) else 0.0
-        vxi = fields[i, 0]
-        vyi = fields[i, 1]
-        vzi = fields[i, 2]
-        th_i = fields[i, 3]
-        irho_i = fields[i, 4]
-        ith_i = fields[i, 5]
-        pr_i = fields[i, 6]
+        vxi = fields[i, VX]
+        vyi = fields[i, VY]
+        vzi = fields[i, VZ]
+        th_i = fields[i, THETA]
+        irho_i = fields[i, INV_RHO]
+        ith_i = fields[i, INV_THETA]
+        pr_i = fields[i, PRESS]
         mi = mass[i]
         ax = acc[i, 0]
         ay = acc[i, 1]
@@ -223,25 +225,25 @@ def momentum_serial(order, pstart, pj, n, fp, pos, mass, kind, fields, need, n_o
             if f == 0.0:  # beyond 2h: the pair adds nothing
                 continue
             j = pj[p]
-            th_j = fields[j, 3]
+            th_j = fields[j, THETA]
             P = 0.0
             if len(pressure):
                 if len(consistent):
-                    P = -(pr_i + fields[j, 6]) * f
+                    P = -(pr_i + fields[j, PRESS]) * f
                 else:
-                    P = c_press * pr_i * fields[j, 6] * (ith_i + fields[j, 5]) * f
+                    P = c_press * pr_i * fields[j, PRESS] * (ith_i + fields[j, INV_THETA]) * f
             V = 0.0
             if len(viscosity):
-                V = (th_i + th_j) * irho_i * fields[j, 4] * f
+                V = (th_i + th_j) * irho_i * fields[j, INV_RHO] * f
             rx = xi - pos[j, 0]
             ry = yi - pos[j, 1]
-            vx = vxi - fields[j, 0]
-            vy = vyi - fields[j, 1]
+            vx = vxi - fields[j, VX]
+            vy = vyi - fields[j, VY]
             rz = 0.0
             vz = 0.0
             if len(three_d):
                 rz = zi - pos[j, 2]
-                vz = vzi - fields[j, 2]
+                vz = vzi - fields[j, VZ]
             if need_i:
                 s = 0.0
                 if len(viscosity):
@@ -303,12 +305,12 @@ def momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fie
         P = 0.0
         if len(pressure):
             if len(consistent):
-                P = -(fields[i, 6] + fields[j, 6]) * f
+                P = -(fields[i, PRESS] + fields[j, PRESS]) * f
             else:
-                P = c_press * fields[i, 6] * fields[j, 6] * (fields[i, 5] + fields[j, 5]) * f
+                P = c_press * fields[i, PRESS] * fields[j, PRESS] * (fields[i, INV_THETA] + fields[j, INV_THETA]) * f
         V = 0.0
         if len(viscosity):
-            V = (fields[i, 3] + fields[j, 3]) * fields[i, 4] * fields[j, 4] * f
+            V = (fields[i, THETA] + fields[j, THETA]) * fields[i, INV_RHO] * fields[j, INV_RHO] * f
         Pp[p] = P
         Vp[p] = V
     for k in prange(n_own):
@@ -327,16 +329,16 @@ def momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fie
                 V = Vp[p]
                 rx = pos[i, 0] - pos[j, 0]
                 ry = pos[i, 1] - pos[j, 1]
-                vx = fields[i, 0] - fields[j, 0]
-                vy = fields[i, 1] - fields[j, 1]
+                vx = fields[i, VX] - fields[j, VX]
+                vy = fields[i, VY] - fields[j, VY]
                 rz = 0.0
                 vz = 0.0
                 if len(three_d):
                     rz = pos[i, 2] - pos[j, 2]
-                    vz = fields[i, 2] - fields[j, 2]
+                    vz = fields[i, VZ] - fields[j, VZ]
                 s = 0.0
                 if len(viscosity):
-                    mu = 0.5 * k_visc * (fields[i, 3] + fields[j, 3]) if len(symmetric_mu) else k_visc * fields[k, 3]
+                    mu = 0.5 * k_visc * (fields[i, THETA] + fields[j, THETA]) if len(symmetric_mu) else k_visc * fields[k, THETA]
                     if len(walls) and kind[o] != FLUID:
                         mu *= _beta(pos[k, 0], pos[o, 0], L, beta_max)
                     s = mu * V

@@ -94,7 +94,8 @@ from parsph import analytic  # noqa: E402
 from parsph.scenes import settling as settling_scene  # noqa: E402
 from parsph.closures import modulus  # noqa: E402
 from parsph.particles import FLUID  # noqa: E402
-from parsph.solver import GuardError, Simulation  # noqa: E402
+from parsph.guards import GuardError, GuardResult  # noqa: E402
+from parsph.solver import Simulation  # noqa: E402
 
 PAPER = ROOT / "run" / "couette_paper.toml"
 THETAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.6, 0.64, 0.7)
@@ -214,8 +215,7 @@ class Probe(Simulation):
         super().check()
 
 
-GUARD_NAMES = {"non-finite": "nonfinite", "crossed a wall": "wall", "volume fraction": "theta",
-               "kinetic energy": "energy", "moved more than one slab": "slab"}
+GUARD_NAMES = {0: "probe", 1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}  # GuardResult.code
 
 
 def run_and_classify(sim):
@@ -228,8 +228,7 @@ def run_and_classify(sim):
             sim.run()
     except GuardError as e:
         message = str(e)
-        guard = "probe" if message.startswith("probe") else next(
-            (v for kk, v in GUARD_NAMES.items() if kk in message), "other")
+        guard = GUARD_NAMES.get(e.result.code, "other")
     except Exception as e:  # noqa: BLE001 - anything else is a finding (the guard missed it)
         crash = type(e).__name__
         message = f"{type(e).__name__}: {e}"
@@ -733,8 +732,9 @@ class SettlingProbe(Probe):
             for c in fired:
                 if self.first[c] < 0:
                     self.first[c] = self.step
-            raise GuardError(f"probe: {', '.join(fired)} at step {self.step}, t = {self.t:.6g} s "
-                             f"(theta dev {dev:.3g}, KE/bound {ke_ratio:.3g})")
+            msg = (f"probe: {', '.join(fired)} at step {self.step}, t = {self.t:.6g} s "
+                   f"(theta dev {dev:.3g}, KE/bound {ke_ratio:.3g})")
+            raise GuardError(GuardResult(0, self.step, self.t, -1, math.nan, math.nan, dev, msg))
         super().check()
 
 
