@@ -153,14 +153,15 @@ class Simulation:
         coords = np.zeros((ps.capacity, 3), np.int64)
         cell_coords(ps.pos, 0, n, origin, side, ncell, periodic, coords)
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
-        order = np.lexsort((ps.gid[:n], coords[:n, 0], coords[:n, 1], coords[:n, 2]))
+        box = ring.local_box(ps.dim)
+        order = self.rates.sort_owned(coords, ps.gid, n, box)
         ps.reorder_owned(order)
         coords[:n] = coords[order]
         coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
         ps.ref[:n] = ps.pos[:n]
         ps.disp[:ps.n] = 0.0
-        self.rates.build(ps, coords, ring.local_box(ps.dim))
+        self.rates.build(ps, coords, box)
         self._coords = coords
         self._built = True
         self.rebuilds += 1
