@@ -28,6 +28,7 @@ import numpy as np
 from mpi4py import MPI
 
 from . import integrate, limits
+from .collectives import Collectives
 from .decomposition import SlabRing
 from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
 from .kernels import get_kernel, lattice_sum
@@ -98,14 +99,15 @@ class Simulation:
         self.timers = defaultdict(float)
         self.rates = Rates(self.kernel, cfg.h, cfg.dim, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L, cfg.beta_max,
                            self.g, switches, self.grid, self.skin)
-        self.n_total = comm.allreduce(ps.n_own)
+        self.collect = Collectives(comm)
+        self.n_total = self.collect.total(ps.n_own)
         self.nbins = cfg.Nx
         self._sums = np.zeros((3, self.nbins))
         self._flags = np.zeros(3)
         self._flags_all = np.zeros(3)
         self._coords = np.zeros((0, 3), np.int64)
         self._built = False      # no list yet: the first evaluation builds one
-        self._bad = 0            # non-finite particles left by the last integration (this rank)
+        self._bad = 0            # non-finite or jumping particles left by the last integration (this rank)
         self._stop_local = 0     # signal seen by this rank since the last sync
         self.force_rebuild = False
         self.stop = 0
@@ -127,7 +129,7 @@ class Simulation:
         f[0] = self._bad
         f[1] = self._stop_local
         f[2] = 1.0 if (not self._built or self.force_rebuild or not spread < self.skin) else 0.0
-        self.comm.Allreduce(f, self._flags_all, op=MPI.MAX)
+        self._flags_all = self.collect.max(f)
         self._bad = 0
         self._stop_local = 0
         self.syncs += 1
@@ -183,15 +185,15 @@ class Simulation:
         t0 = time.perf_counter()
         n = ps.n_own
         if cfg.integrator == "paper":
-            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump)
+            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h)
         else:
-            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump)
+            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
             T["integrate"] += time.perf_counter() - t0
             self._bad = bad
             self.compute_rates()
             t0 = time.perf_counter()
             n = ps.n_own
-            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump)
+            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         self._bad = bad
@@ -208,9 +210,7 @@ class Simulation:
             ps.theta[:n][fluid].max(initial=cfg.theta0),
             np.sqrt((ps.acc[:n] ** 2).sum(axis=1)).max(initial=0.0),
         ])
-        glob = np.empty(3)
-        self.comm.Allreduce(local, glob, op=MPI.MAX)
-        vmax, theta_max, amax = glob
+        vmax, theta_max, amax = self.collect.max(local)
         theta_max = min(theta_max, 0.999)
         return limits.stable_dt(cfg, theta_max, vmax, amax)[0]   # config.build's limits, at the current state
 
@@ -225,8 +225,7 @@ class Simulation:
         ps, cfg = self.ps, self.cfg
         bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self.period_x,
                  self._sums)
-        sums = np.empty_like(self._sums)
-        self.comm.Allreduce(self._sums, sums, op=MPI.SUM)
+        sums = self.collect.sum(self._sums)
         count = sums[2]
         with np.errstate(invalid="ignore", divide="ignore"):
             out = {"x": bin_centres(cfg.L, self.nbins), "vy": sums[0] / count, "theta": sums[1] / count,
@@ -243,7 +242,7 @@ class Simulation:
         """Collective run-time checks (:mod:`parsph.guards`); on failure every rank raises GuardError."""
         t0 = time.perf_counter()
         try:
-            run_checks(self.comm, self.ps, self.cfg, self.step, self.t)
+            run_checks(self.collect, self.ps, self.cfg, self.step, self.t)
         finally:
             self.timers["checks"] += time.perf_counter() - t0
 
