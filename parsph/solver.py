@@ -18,6 +18,7 @@ from . import equations, integrate
 from .config import dt_limits
 from .decomposition import SlabRing
 from .kernels import get_kernel, lattice_sum
+from .output import Frame, read_particles
 from .particles import FLUID, Particles, add_images, copy_from_sources, count_images
 from .profile import bin_centres, bin_sums, errors
 from .rates import Rates
@@ -42,7 +43,7 @@ class Interrupted(RuntimeError):
 
 class Simulation:
     def __init__(self, cfg, comm, state=None):
-        """Set up the run on ``comm``; ``state`` (from output.read_state) continues a run."""
+        """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run."""
         self.cfg = cfg
         self.comm = comm
         self.scene = cfg.scene
@@ -54,12 +55,11 @@ class Simulation:
         self.ring = SlabRing(comm, cfg.Ly, self.halo)
         if state is None:
             self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
-        else:
-            y = state["position"][:, 1]
-            mine = (y >= self.ring.lo) & (y < self.ring.hi)
-            self.ps = Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
-                                            state["mass"][mine], state["position"][mine],
-                                            state["velocity"][mine])
+        else:  # only this slab's particles, read collectively: O(N/P) memory on any rank count
+            p = read_particles(state["path"], comm, self.ring.lo, self.ring.hi)
+            self.ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"], p["position"],
+                                            p["velocity"])
+            del p
         # Walls hold the density that Eq. (3) gives inside the initial lattice,
         # so that the undisturbed lattice is in equilibrium next to a wall;
         # scaled by the scene's wall_theta(x) / theta_0 where it has one (a
@@ -187,6 +187,13 @@ class Simulation:
         return min(lim.values())
 
     # ---- reductions ------------------------------------------------------------
+    def frame(self):
+        """What an output writes (output.Frame): time, profile and views of the owned particles."""
+        ps, n = self.ps, self.ps.n_own
+        fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": ps.pos[:n],
+                  "velocity": ps.vel[:n], "theta": ps.theta[:n]}
+        return Frame(self.t, self.step, self.dt, self.profile(), fields)
+
     def profile(self):
         """Global v_y(x) and theta(x): per-bin sums and counts all-reduced over ranks.
 
