@@ -454,7 +454,7 @@ def _rounds(ranges, size):
     return rounds
 
 
-def read_particles(path, comm, lo, hi):
+def read_particles(path, comm, lo, hi, dxpl=None):
     """The particles of one output file with lo <= y < hi (id, kind, mass, position, velocity).
 
     Collective on ``comm`` under the mpio driver (every rank the same number of
@@ -462,11 +462,12 @@ def read_particles(path, comm, lo, hi):
     each rank opens the file itself. A rank reads only the rows of the file's
     y-bins that overlap [lo, hi), in rounds of at most ceil(N / P) rows (clipped to
     READ_ROWS), so its memory is O(N / P) whatever the rank count that wrote the file.
-    Particles come in file order.
+    Particles come in file order. ``dxpl``: the collective transfer list to use (default
+    a new one; tests pass theirs to inspect the I/O mode HDF5 used).
     """
     parallel = parallel_hdf5_available()
     f = h5py.File(path, "r", driver="mpio", comm=comm) if parallel else h5py.File(path, "r")
-    dxpl = collective_dxpl() if parallel else None
+    dxpl = (dxpl or collective_dxpl()) if parallel else None
     g = f["particles"]
     n = g["id"].shape[0]
     ranges = _rows_in(f, comm, lo, hi, parallel)
