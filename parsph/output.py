@@ -25,6 +25,7 @@ is a restart point. In a file:
     /layout/offset         (P+1,)         rows offset[r] .. offset[r+1]-1 hold writer rank r's particles
     /layout/y_range        (P, 2)         min and max y of those particles (NaN: none)
     /layout/bin_start      (P, B+1)       first row of each of B equal y-bins of [y_min, y_max] per rank
+    /layout/memory_index   (N,) i4        each row's place in the writer rank's memory (restored on restart)
 
 Writing: every rank writes its particles as one hyperslab at the offset given
 by a scan of the particle counts, in one collective H5Dwrite per dataset; a
@@ -136,8 +137,11 @@ def y_bins(y, y_min, y_max, nbins):
     span = y_max - y_min
     if not span > 0:
         return np.zeros(y.shape, np.uint16)
-    k = np.floor((y - y_min) * (nbins / span))
-    return np.clip(k, 0, nbins - 1).astype(np.uint16)
+    k = y - y_min
+    k *= nbins / span
+    np.floor(k, out=k)
+    np.clip(k, 0, nbins - 1, out=k)
+    return k.astype(np.uint16)
 
 
 def _durable_rename(part, final):
@@ -267,26 +271,36 @@ class Output:
         comm.Allgather(mine, y_range)
         nbins = int(min(MAX_BINS, max(1, -(-int(counts.max()) // BIN_ROWS))))
         key = y_bins(y, mine[0], mine[1], nbins)
-        order = np.argsort(key, kind="stable")
         bin_start = off + np.concatenate([[0], np.cumsum(np.bincount(key, minlength=nbins))]).astype(np.int64)
+        # a stable radix sort; no permutation at all where the rows are in bin order already
+        order = None if np.all(key[1:] >= key[:-1]) else np.argsort(key, kind="stable")
+        del key
+
+        def ordered(a):
+            return a if order is None else np.take(a, order, axis=0)
 
         def arrays():
+            """(group, name, rows of this rank) of every per-particle dataset."""
             for key_ in PARTICLE_FIELDS:
-                yield key_, np.take(fields[key_], order, axis=0).astype(FILE_DTYPES[key_], copy=False)
+                yield "particles", key_, ordered(fields[key_]).astype(FILE_DTYPES[key_], copy=False)
             if dim == 2:
                 v = np.zeros((n, 3), np.float32)
-                v[:, :2] = np.take(fields["velocity"], order, axis=0)
-                yield "velocity_xyz", v
+                v[:, :2] = ordered(fields["velocity"])
+                yield "particles", "velocity_xyz", v
+            # each row's place in the writer's memory: a restart on the same slabs restores that order
+            itype = np.int32 if counts.max() < 2 ** 31 else np.int64
+            yield "layout", "memory_index", (np.arange(n) if order is None else order).astype(itype)
 
         units = dict(UNITS, mass=MASS_UNITS[dim], velocity_xyz="m/s")
         tables = (("offset", offset, None), ("y_range", y_range, None), ("bin_start", bin_start, comm.rank))
         if self.parallel:
-            grp = f.create_group("particles")
-            for key_, arr in arrays():
-                d = grp.create_dataset(key_, (self.N,) + arr.shape[1:], dtype=arr.dtype)
-                d.attrs["units"] = units[key_]
+            groups = {"particles": f.create_group("particles"), "layout": f.create_group("layout")}
+            for grp, key_, arr in arrays():
+                d = groups[grp].create_dataset(key_, (self.N,) + arr.shape[1:], dtype=arr.dtype)
+                if key_ in units:
+                    d.attrs["units"] = units[key_]
                 write_rows(d, off, arr, self.dxpl)
-            lay = f.create_group("layout")
+            lay = groups["layout"]
             for key_, arr, row in tables:
                 shape = (comm.size, nbins + 1) if row is not None else arr.shape
                 d = lay.create_dataset(key_, shape, dtype=arr.dtype)
@@ -295,8 +309,9 @@ class Output:
                 else:  # rank 0 the whole table
                     write_rows(d, 0, arr if self.root else arr[:0], self.dxpl)
         else:
-            grp = f.create_group("particles") if self.root else None
-            for key_, arr in arrays():
+            groups = {"particles": f.create_group("particles"), "layout": f.create_group("layout")} \
+                if self.root else None
+            for grp, key_, arr in arrays():
                 arr = np.ascontiguousarray(arr)
                 width = int(np.prod(arr.shape[1:], dtype=np.int64))
                 recv = None
@@ -305,11 +320,13 @@ class Output:
                     recv = [full, counts * width]
                 comm.Gatherv(arr, recv, root=0)
                 if self.root:
-                    grp.create_dataset(key_, data=full).attrs["units"] = units[key_]
+                    d = groups[grp].create_dataset(key_, data=full)
+                    if key_ in units:
+                        d.attrs["units"] = units[key_]
                     del full
             rows = comm.gather(bin_start, root=0)
             if self.root:
-                lay = f.create_group("layout")
+                lay = groups["layout"]
                 for key_, arr, row in tables:
                     lay.create_dataset(key_, data=np.array(rows) if row is not None else arr)
 
@@ -413,11 +430,12 @@ def read_state(path):
 
 def _rows_in(f, comm, lo, hi, parallel):
     """Ascending, disjoint row ranges (a, b) of the file that hold every particle with
-    lo <= y < hi: the bins of the writer ranks' rows that overlap [lo, hi)."""
+    lo <= y < hi (the bins of the writer ranks' rows that overlap [lo, hi)), and the
+    writer ranks' row offsets (None for a file without /layout)."""
     g = f["particles"]
     n = g["id"].shape[0]
     if "layout" not in f:  # a file without the layout: every row, read in rounds and filtered
-        return [(0, n)]
+        return [(0, n)], None
     lay = f["layout"]
     tables = None
     if comm.rank == 0 or not parallel:
@@ -434,7 +452,7 @@ def _rows_in(f, comm, lo, hi, parallel):
         k0, k1 = y_bins([max(lo, y0), min(hi, y1)], y0, y1, nbins)
         starts = lay["bin_start"][r, int(k0):int(k1) + 2]
         ranges.append((int(starts[0]), int(starts[-1])))
-    return ranges
+    return ranges, offset
 
 
 def _rounds(ranges, size):
@@ -462,32 +480,57 @@ def read_particles(path, comm, lo, hi, dxpl=None):
     each rank opens the file itself. A rank reads only the rows of the file's
     y-bins that overlap [lo, hi), in rounds of at most ceil(N / P) rows (clipped to
     READ_ROWS), so its memory is O(N / P) whatever the rank count that wrote the file.
-    Particles come in file order. ``dxpl``: the collective transfer list to use (default
-    a new one; tests pass theirs to inspect the I/O mode HDF5 used).
+    Particles come in writer-rank order and, within a writer's rows, in the order the
+    writer held them (/layout/memory_index), so a restart on the same slabs continues
+    with the same memory order as the run that wrote the file (and adds the profile's
+    per-bin sums in the same order). ``dxpl``: the collective transfer list to use
+    (default a new one; tests pass theirs to inspect the I/O mode HDF5 used).
     """
     parallel = parallel_hdf5_available()
     f = h5py.File(path, "r", driver="mpio", comm=comm) if parallel else h5py.File(path, "r")
     dxpl = (dxpl or collective_dxpl()) if parallel else None
     g = f["particles"]
     n = g["id"].shape[0]
-    ranges = _rows_in(f, comm, lo, hi, parallel)
+    ranges, offset = _rows_in(f, comm, lo, hi, parallel)
     size = int(np.clip(-(-n // comm.size), *READ_ROWS))
     rounds = _rounds(ranges, size)
     count = comm.allreduce(len(rounds), op=_mpi_max()) if parallel else len(rounds)
     shapes = {key: g[key].shape[1:] for key in RESTART_FIELDS}
-    pieces = {key: [] for key in RESTART_FIELDS}
+    dtypes = dict(FILE_DTYPES)
+    sources = {key: g[key] for key in RESTART_FIELDS}
+    if offset is not None and "memory_index" in f["layout"]:  # (writer rank << 32) + place in its memory
+        sources["order"] = f["layout/memory_index"]
+        shapes["order"], dtypes["order"] = (), np.int64
+    pieces = {key: [] for key in sources}
     for i in range(count):
         sel = rounds[i] if i < len(rounds) else []
         pos = read_rows(g["position"], sel, dxpl)
         keep = (pos[:, 1] >= lo) & (pos[:, 1] < hi)
-        pieces["position"].append(pos[keep])
+        every = bool(keep.all())  # inner bins: no filtering copy
+        pieces["position"].append(pos if every else pos[keep])
         del pos
-        for key in ("id", "kind", "mass", "velocity"):
-            pieces[key].append(read_rows(g[key], sel, dxpl)[keep])
+        for key, dset in sources.items():
+            if key == "position":
+                continue
+            rows = read_rows(dset, sel, dxpl)
+            if key == "order":
+                rank = np.searchsorted(offset, np.concatenate([np.arange(a, b) for a, b in sel] or [[]]),
+                                       side="right") - 1
+                rows = (rank.astype(np.int64) << 32) + rows
+                del rank
+            pieces[key].append(rows if every else rows[keep])
+            del rows
     # no try/finally: the close is collective (see Output.__call__)
     f.close()
-    return {key: np.concatenate(parts) if parts else np.zeros((0,) + shapes[key], FILE_DTYPES[key])
-            for key, parts in pieces.items()}
+    out = {key: (parts[0] if len(parts) == 1 else np.concatenate(parts)) if parts
+           else np.zeros((0,) + shapes[key], dtypes[key]) for key, parts in pieces.items()}
+    order = out.pop("order", None)
+    if order is not None and not np.all(order[1:] >= order[:-1]):
+        perm = np.argsort(order, kind="stable")
+        del order
+        for key in out:
+            out[key] = np.take(out[key], perm, axis=0)
+    return out
 
 
 def _mpi_max():
