@@ -6,7 +6,8 @@ Runs under ParaView's Python (Debian: ``apt-get install paraview python3-paravie
 not parsph's virtual environment. For every time step it prints the point arrays
 ParaView reads (components and range) and checks that id, kind, theta, vx, vy
 (vz in 3-D) and the 3-component ``velocity`` vector (the active vectors, for
-glyphs) are there. For the last step it bins the fluid points in x as parsph's
+glyphs) are there, and that the Glyph filter accepts ``velocity`` as its
+orientation. For the last step it bins the fluid points in x as parsph's
 profile does (bins of L / Nx; Eq. (8)'s reference and the scale come with the
 step's ``parsph.profile`` Information element) and prints the max and RMS error
 of the scene's error field computed from ParaView's arrays, beside the error
@@ -61,6 +62,23 @@ def point_data(reader, t):
     return vtk_to_numpy(data.GetPoints().GetData()), arrays, vectors
 
 
+def glyph_points(reader, t):
+    """Points of ParaView's Glyph filter (arrows) oriented by ``velocity``; 0 when ParaView does not
+    offer ``velocity`` as an orientation array (it offers only 3-component arrays)."""
+    from paraview.simple import Delete, Glyph
+    g = Glyph(Input=reader, GlyphType="Arrow")
+    domain = g.GetProperty("OrientationArray").SMProperty.FindDomain("vtkSMArrayListDomain")
+    offered = [domain.GetString(i) for i in range(domain.GetNumberOfStrings())]
+    n = 0
+    if "velocity" in offered:
+        g.OrientationArray = ["POINTS", "velocity"]
+        g.ScaleArray = ["POINTS", "No scale array"]
+        g.UpdatePipeline(t)
+        n = g.GetClientSideObject().GetOutputDataObject(0).GetNumberOfPoints()
+    Delete(g)
+    return n
+
+
 def profile_error(points, arrays, prof):
     """(max, rms) of |mean field per x bin - reference| / scale over the fluid points (kind 0)."""
     fluid = arrays["kind"] == 0
@@ -106,6 +124,9 @@ def main(argv):
                   f"{not bad_vector and vectors == 'velocity'}")
     if steps:
         t, _, prof = steps[-1]
+        glyphs = glyph_points(reader, t)
+        print(f"Glyph filter oriented by velocity at t = {t!r} s: {glyphs} points of arrows")
+        ok = ok and glyphs > 0
         points, arrays, _ = point_data(reader, t)
         if not np.isfinite(np.array(prof["exact"], dtype=float)).any():
             print(f"profile error at t = {t!r} s: the scene has no reference")

@@ -5,7 +5,8 @@
 Skipped when ``pvpython`` is not on PATH (Debian: ``apt-get install paraview
 python3-paraview``; not part of the set-up). Short paper-case runs in 2-D and
 3-D (serial parsph), then the script: every step must show id, kind, theta,
-vx, vy (vz) and the 3-component velocity as the active vectors, and the error
+vx, vy (vz) and the 3-component velocity as the active vectors, the Glyph
+filter must accept velocity as its orientation and make arrows, and the error
 the script computes from ParaView's points at the last step must equal
 ``parsph check``'s and an independent recomputation from the HDF5 particles
 and Eq. (8) (numpy binning, parsph.analytic). The structure of the sidecar is
@@ -71,6 +72,8 @@ def test_default_reader_shows_every_array_and_the_error(tmp_path, dim):
         for w in want:
             assert w in line, (w, line)
     assert "all arrays present on every step" in text
+    m = re.search(r"Glyph filter oriented by velocity at t = \S+ s: (\d+) points of arrows", text)
+    assert m and int(m[1]) > 0, pv
 
     m = re.search(r"at t = (\S+) s \(last step\).*: max (\S+), rms (\S+) from ParaView's points; "
                   r"parsph: max (\S+), rms (\S+)", text)
