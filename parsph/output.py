@@ -526,11 +526,28 @@ def read_particles(path, comm, lo, hi, dxpl=None):
            else np.zeros((0,) + shapes[key], dtypes[key]) for key, parts in pieces.items()}
     order = out.pop("order", None)
     if order is not None and not np.all(order[1:] >= order[:-1]):
-        perm = np.argsort(order, kind="stable")
+        perm = _memory_order(order, offset)
         del order
         for key in out:
             out[key] = np.take(out[key], perm, axis=0)
     return out
+
+
+def _memory_order(keys, offset):
+    """The permutation that sorts ``keys`` ((writer rank << 32) + place in its memory; grouped by
+    writer rank, ascending): O(n) by scatter for a writer whose rows are all here (a restart on
+    the same slabs), a sort for a writer of which only some rows are."""
+    ranks = keys >> 32
+    cuts = np.flatnonzero(np.diff(ranks)) + 1
+    perm = np.empty(len(keys), np.int64)
+    for s, e in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(keys)]])):
+        place = keys[s:e] & 0xFFFFFFFF
+        r = int(ranks[s])
+        if e - s == offset[r + 1] - offset[r]:  # a permutation of 0 .. n_r - 1: invert it
+            perm[s + place] = np.arange(s, e)
+        else:
+            perm[s:e] = s + np.argsort(place, kind="stable")
+    return perm
 
 
 def _mpi_max():

@@ -20,7 +20,8 @@ of the two raw rates where dd is faster). The median of ``--repeat`` rounds.
 rss: a fresh run of the paper case with L_y chosen for N particles, one step
 with one output (a restart point), then a restart from it for one more step
 and output, each on P ranks (oversubscribed past the cores); every rank
-records its peak resident set size (getrusage ru_maxrss) at exit.
+records its peak resident set size (getrusage ru_maxrss) at exit. ``--repo``
+runs another checkout's parsph (e.g. the commit before the slab reads).
 """
 import argparse
 import json
@@ -178,8 +179,10 @@ def throughput(args):
 
 
 def rss_run(argv):
-    """Inside one rank: run the parsph CLI, then record this process's peak RSS."""
+    """Inside one rank: run the parsph CLI (of the checkout on PYTHONPATH), then record this
+    process's peak RSS."""
     out = argv[0]
+    sys.path.insert(0, os.environ["PYTHONPATH"].split(os.pathsep)[0])
     from mpi4py import MPI
     from parsph import cli
     rc = cli.main(argv[1:])
@@ -191,8 +194,8 @@ def rss_run(argv):
 
 def rss(args):
     Ly, N = ly_for(args.n)
-    env = dict(os.environ, PYTHONPATH=ROOT, NUMBA_NUM_THREADS="1", OMPI_ALLOW_RUN_AS_ROOT="1",
-               OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(args.repo), NUMBA_NUM_THREADS="1",
+               OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     dt = 1e-5
     sets = ["--set", f"domain.Ly={Ly!r}", "--set", "output.progress_interval=0"]
     results = []
@@ -224,7 +227,10 @@ def rss(args):
         row["ratio_max"] = max(row["restart"]["peak_rss_MB"]) / max(row["fresh"]["peak_rss_MB"])
         results.append(row)
         shutil.rmtree(base)
-    res = {"mode": "rss", "n": N, "machine": machine(), "rows": results}
+    commit = subprocess.run(["git", "-C", args.repo, "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    res = {"mode": "rss", "n": N, "repo": os.path.abspath(args.repo), "commit": commit, "machine": machine(),
+           "rows": results}
     print(json.dumps(res, indent=1))
     if args.json:
         with open(args.json, "w") as f:
@@ -259,11 +265,11 @@ def report(paths):
                 f"| {r['read_MBps'] / raw['read_numpy']:.2f}, {r['read_MBps'] / raw['read_dd_direct']:.2f} "
                 f"| {load} |")
     if rss_rows:
-        out += ["", "| N | P | fresh: peak RSS per rank [MB] | restart: peak RSS per rank [MB] | restart / fresh (max rank) |",
-                "| --- | --- | --- | --- | --- |"]
+        out += ["", "| N | P | fresh: peak RSS per rank [MB] | restart: peak RSS per rank [MB] "
+                "| restart / fresh (max rank) |", "| --- | --- | --- | --- | --- |"]
         for r in rss_rows:
-            out.append(f"| {r['n'] / 1e6:.0f} M | {r['ranks']} | {', '.join(f'{v:.0f}' for v in r['fresh']['peak_rss_MB'])} "
-                       f"| {', '.join(f'{v:.0f}' for v in r['restart']['peak_rss_MB'])} | {r['ratio_max']:.3f} |")
+            fresh, rest = (", ".join(f"{v:.0f}" for v in r[k]["peak_rss_MB"]) for k in ("fresh", "restart"))
+            out.append(f"| {r['n'] / 1e6:.0f} M | {r['ranks']} | {fresh} | {rest} | {r['ratio_max']:.3f} |")
     print("\n".join(out))
 
 
@@ -280,6 +286,7 @@ def main():
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 4])
     ap.add_argument("--order", choices=("shuffled", "lattice"), default="shuffled",
                     help="particle order in memory: shuffled (worst case for the y-bin sort) or lattice rows")
+    ap.add_argument("--repo", default=ROOT, help="rss: the parsph checkout the ranks import (default this one)")
     ap.add_argument("--json", help="write the results here")
     args = ap.parse_args()
     return throughput(args) if args.mode == "throughput" else rss(args)

@@ -83,7 +83,8 @@ def test_default_reader_shows_every_array_and_the_error(tmp_path, dim):
     # parsph check's table: its last row, as printed (three significant digits)
     chk = launch.run(launch.parsph_cmd("check", out, "--tol", "10"), timeout=120)
     assert chk.returncode == 0, chk
-    last = [ln.split() for ln in chk.stdout.splitlines() if re.match(r"\s*[0-9.e-]+\s+[0-9.e+-]+\s+[0-9.e+-]+$", ln)][-1]
+    row = re.compile(r"\s*[0-9.e-]+\s+[0-9.e+-]+\s+[0-9.e+-]+$")
+    last = [ln.split() for ln in chk.stdout.splitlines() if row.match(ln)][-1]
     assert float(last[0]) == pytest.approx(times[-1])
     assert f"{emax:.3e}" == last[1] and f"{erms:.3e}" == last[2], (emax, erms, last)
     # the same numbers to rounding: ParaView's points against the recorded profile and an independent sum
