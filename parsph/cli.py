@@ -112,7 +112,9 @@ def _run_reporting(comm, args, say, signals):
 
 
 def _restart_state(cfg, path):
-    """The snapshot to continue from, after checking that its physics matches ``cfg``."""
+    """The snapshot to continue from, after checking from its attributes alone (no particle
+    arrays) that its physics matches ``cfg``: {"attrs": ..., "path": ...} for Simulation,
+    whose ranks then read only their own slab's particles (output.read_particles)."""
     from . import config
     from .output import last_snapshot, output_files, read_state
     try:

@@ -22,7 +22,6 @@ its own neighbour across the periodic boundary).
 import math
 import time
 from collections import defaultdict
-from types import SimpleNamespace
 
 import numpy as np
 from mpi4py import MPI
@@ -33,6 +32,7 @@ from .decomposition import SlabRing
 from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
 from .kernels import get_kernel, lattice_sum
 from .neighbours import cell_coords, grid_for
+from .output import Frame, read_particles
 from .particles import FLUID, Particles
 from .profile import bin_centres, bin_sums, errors
 from .rates import Rates
@@ -52,7 +52,7 @@ class Interrupted(RuntimeError):
 
 class Simulation:
     def __init__(self, cfg, comm, state=None):
-        """Set up the run on ``comm``; ``state`` (from output.read_state) continues a run."""
+        """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run."""
         self.cfg = cfg
         self.comm = comm
         self.scene = cfg.scene
@@ -64,7 +64,12 @@ class Simulation:
         self.ring = SlabRing(comm, cfg.Ly, self.grid)
         if state is None:
             self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
-        else:
+        elif "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
+            p = read_particles(state["path"], comm, self.ring.lo, self.ring.hi)
+            self.ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"], p["position"],
+                                            p["velocity"])
+            del p
+        else:  # a state given as arrays (id, kind, mass, position, velocity): this slab's rows
             y = state["position"][:, 1]
             mine = (y >= self.ring.lo) & (y < self.ring.hi)
             self.ps = Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
@@ -259,7 +264,7 @@ class Simulation:
                     pos[:, axis] %= a.period
             fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": pos,
                       "velocity": ps.vel[:n], "theta": ps.theta[:n]}
-        return SimpleNamespace(t=self.t, step=self.step, dt=self.dt, profile=self.profile(), fields=fields)
+        return Frame(self.t, self.step, self.dt, self.profile(), fields)
 
     # ---- the loop ----------------------------------------------------------------
     def _output_due(self, t_out):
