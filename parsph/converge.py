@@ -24,7 +24,7 @@ import tomllib
 import numpy as np
 
 from . import convergence
-from .cli import EXIT_BAD_INPUT, UsageError, _agree, _run_reporting, _Signals
+from .cli import EXIT_BAD_INPUT, UsageError, _agree, _fits_in_memory, _run_reporting, _Signals
 
 # Numerics of the presets (docs/accuracy.md, "The frontier"), for --family; "given" is the run file's own.
 FAMILIES = {
@@ -88,7 +88,6 @@ def _read_raw(path, sets):
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise UsageError(f"{path} is not valid TOML: {e}") from None
     config.apply_overrides(raw, sets or ())
-    config.build(raw, config.dumps(raw))  # validate the base level
     return raw
 
 
@@ -106,16 +105,17 @@ def _plan(args):
         if f != "given" and f not in FAMILIES:
             raise UsageError(f"--family {f}: unknown (known: given, {', '.join(FAMILIES)})")
     raw = _read_raw(args.config, args.set)
-    nx0 = int(raw["numerics"]["Nx"])
     plan = []
     for fam in dict.fromkeys(families):
         fraw = _family_raw(raw, fam)
         try:
+            # the family's base level validated first: its errors name the run file's keys
+            nx0 = config.build(fraw, config.dumps(fraw)).Nx
             levels = [(nx0 * args.ratio ** l, level_raw(fraw, nx0 * args.ratio ** l)) for l in range(args.levels)]
             for nx, lr in levels:
                 cfg = config.build(lr, config.dumps(lr))
         except config.ConfigError as e:
-            raise UsageError(f"family {fam}: {e}") from None
+            raise UsageError(str(e) if fam == "given" else f"family {fam}: {e}") from None
         if len(cfg.output_times) == 0:
             raise UsageError("output.times is empty: the levels are compared at the output times")
         plan.append((fam, levels))
@@ -154,6 +154,8 @@ def _converge(comm, args, signals):
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = args.out or os.path.join("out", stem + "_converge")
     plan = _agree(comm, lambda: _plan(args))
+    for fam, levels in plan:  # the finest level of each family must fit, before any level runs
+        _agree(comm, lambda: _fits_in_memory(comm, config.build(levels[-1][1], config.dumps(levels[-1][1]))))
 
     def say(msg):
         if root:
