@@ -298,7 +298,9 @@ def print_report(rep):
             e = row["estimate"]
             state = "asymptotic" if e["asymptotic"] else "NOT asymptotic: " + "; ".join(e["reasons"])
             orders = ", ".join(_fmt(p, ".2f") for p in e["orders"])
-            print(f"t = {row['t']:g} s, scale {row['scale']:.4g}: observed order {orders or '-'}"
+            nb = len(fam["levels"]) and e["bins"]
+            bins = "" if nb == fam["Nx"][0] else f"; {nb} of {fam['Nx'][0]} bins have data in every level"
+            print(f"t = {row['t']:g} s, scale {row['scale']:.4g}{bins}: observed order {orders or '-'}"
                   f" (shape residual {', '.join(_fmt(s, '.2f') for s in e['shapes']) or '-'}); {state}")
             has_true = "true_max" in row
             print(f"{'N_x':>6} {'particles':>10} {'steps':>7} {'CPU s':>9} {'|f-f_coarser|':>13} "
