@@ -250,3 +250,29 @@ def test_converge_bad_input_is_one_line(tmp_path, cli, args, words):
     rc, so, se = cli("converge", "run/couette_fast.toml", "--out", tmp_path / "x", *args)
     assert rc == 2
     assert se.count("\n") == 1 and words in se and "Traceback" not in se
+
+
+def test_converge_on_two_ranks_matches_one(tmp_path):
+    """Every level runs on the communicator converge was started on: 2 ranks give the
+    1-rank profiles, so the same orders and estimates (to round-off of the reductions)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
+    import launch
+    if launch.under_mpirun():
+        pytest.skip("launches mpirun itself")
+    args = ["converge", "run/couette_fast.toml", "--family", "accurate", "--set", "output.t_end=0.01",
+            "--set", "output.times=[0.01]"]
+    reps = []
+    for ranks in (1, 2):
+        out = tmp_path / f"np{ranks}"
+        cmd = launch.parsph_cmd(*args, "--out", out)
+        r = launch.run(launch.mpirun_cmd(ranks, *cmd), timeout=600, shared_cache=True)
+        assert r.returncode == 0, r
+        reps.append(json.loads((out / "converge.json").read_text())["families"][0])
+    one, two = reps
+    assert two["levels"][0]["ranks"] == 2 and one["levels"][0]["ranks"] == 1
+    a, b = one["times"][0], two["times"][0]
+    assert a["steps"] == b["steps"]
+    np.testing.assert_allclose(b["true_max"], a["true_max"], rtol=1e-9)
+    np.testing.assert_allclose(b["estimate"]["err_max"], a["estimate"]["err_max"], rtol=1e-9)
