@@ -167,7 +167,8 @@ def _converge(comm, args, signals):
         runs = []
         for l, (nx, lr) in enumerate(levels):
             ldir = os.path.join(out_dir, fam, f"nx{nx}")
-            text = f"# parsph converge: {args.config}, family {fam}, level {l} (N_x = {nx})\n" + config.dumps(lr)
+            # the header names no level index, so a study from another base N_x can reuse this level
+            text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + config.dumps(lr)
             rec = _agree(comm, lambda: _reusable(ldir, text))
             if rec is None:
                 if not warm:
