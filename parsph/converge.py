@@ -24,7 +24,7 @@ import tomllib
 import numpy as np
 
 from . import convergence
-from .cli import EXIT_BAD_INPUT, UsageError, _agree, _fits_in_memory, _run_reporting, _Signals
+from .cli import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, UsageError, _agree, _fits_in_memory, _run_reporting, _Signals
 
 # Numerics of the presets (docs/accuracy.md, "The frontier"), for --family; "given" is the run file's own.
 FAMILIES = {
@@ -148,8 +148,9 @@ def _warm_up(comm, raw):
 
 
 def _converge(comm, args, signals):
-    from . import config
     from argparse import Namespace
+    from . import config
+    from .solver import GuardError
     root = comm.rank == 0
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = args.out or os.path.join("out", stem + "_converge")
@@ -169,10 +170,14 @@ def _converge(comm, args, signals):
             ldir = os.path.join(out_dir, fam, f"nx{nx}")
             # the header names no level index, so a study from another base N_x can reuse this level
             text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + config.dumps(lr)
-            rec = _agree(comm, lambda: _reusable(ldir, text))
+            rec = comm.bcast(_reusable(ldir, text) if root else None, root=0)
             if rec is None:
                 if not warm:
-                    _warm_up(comm, levels[0][1])
+                    try:  # a coarse level too small for the rank count is bad input on every rank alike
+                        _agree(comm, lambda: _warm_up(comm, levels[0][1]))
+                    except GuardError as e:  # raised on every rank alike
+                        say(f"parsph converge: N_x = {levels[0][0]} ({fam}) is unstable: {e}")
+                        return EXIT_GUARD
                     warm = True
                 path = os.path.join(ldir, stem + ".toml")
 
@@ -211,17 +216,20 @@ def _converge(comm, args, signals):
                 say(f"parsph converge: family {fam}, level {l + 1}/{len(levels)}: N_x = {nx}, reusing {ldir}")
             runs.append(rec)
         results.append((fam, runs))
-    if root:
-        report = analyse(results, args.ratio, args.target)
-        print_report(report)
-        os.makedirs(out_dir, exist_ok=True)
-        with open(os.path.join(out_dir, "converge.json"), "w") as f:
-            json.dump(_jsonable(report), f, indent=1)
-        png = os.path.join(out_dir, "converge.png")
-        plot(report, png)
-        print(f"wrote {os.path.join(out_dir, 'converge.json')} and {png}")
-    comm.Barrier()
-    return 0
+    code = 0
+    if root:  # files only; the other ranks wait for its exit code, so a failure here cannot hang them
+        try:
+            report = analyse(results, args.ratio, args.target)
+            print_report(report)
+            with open(os.path.join(out_dir, "converge.json"), "w") as f:
+                json.dump(_jsonable(report), f, indent=1)
+            png = os.path.join(out_dir, "converge.png")
+            plot(report, png)
+            print(f"wrote {os.path.join(out_dir, 'converge.json')} and {png}")
+        except (OSError, ValueError, KeyError) as e:
+            print(f"parsph: error: cannot analyse the levels in {out_dir}: {e}", file=sys.stderr, flush=True)
+            code = EXIT_ERROR
+    return comm.bcast(code, root=0)
 
 
 def _reusable(ldir, text):
