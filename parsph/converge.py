@@ -325,6 +325,9 @@ def print_report(rep):
                 print(line)
         if fam["caution"]:
             print("caution: " + fam["caution"])
+        if len(fam["Nx"]) == 3 and any(r["estimate"]["asymptotic"] for r in fam["times"]):
+            print("note: three levels give one order and cannot check it; an error that every level shares "
+                  "(the kernel's bias at fixed h/dx) is invisible to them; --levels 4 checks the order")
         if "target" in fam:
             t = fam["target"]
             if t["Nx"] is None:
