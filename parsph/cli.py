@@ -256,7 +256,6 @@ def print_table(path, tol=None):
     """Print the error table of a run's outputs; return the worst max error.
 
     For a decaying flow the errors are relative to what is left of it at each time."""
-    import numpy as np
     from .output import read_profile
     from .profile import errors
     p = read_profile(path)
