@@ -3,7 +3,6 @@ errors are known by construction, independent of the solver; and one short real 
 through `parsph converge` against Eq. (8)."""
 import json
 import math
-import os
 
 import numpy as np
 import pytest
