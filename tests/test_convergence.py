@@ -219,11 +219,15 @@ def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
         exact_c = couette_velocity(xc, row["t"], nu, L, 1.0)
         true = [_restrict_error(p, i, xc, exact_c) for p in profs]
         np.testing.assert_allclose(row["true_max"], true, rtol=1e-9)
+        # each level's error on its own bins, from Eq. (8) alone (no interpolation)
+        own = [float(np.max(np.abs(p["vy"][i] - couette_velocity(p["x"], row["t"], nu, L, 1.0)))) for p in profs]
+        np.testing.assert_allclose(row["check_max"], own, rtol=1e-9)
         est = row["estimate"]
         assert est["asymptotic"], est["reasons"]
         assert 1.7 < est["order"] < 2.6
-        for e, t in zip(est["err_max"][1:], true[1:]):
+        for e, t, o in zip(est["err_max"][1:], true[1:], own[1:]):
             assert 0.5 < e / t < 2.0, (row["t"], e, t)
+            assert 0.5 < e / o < 2.0, (row["t"], e, o)
         # the cost to each output time grows with N_x
         assert 0 < row["cpu_s"][0] < row["cpu_s"][1] < row["cpu_s"][2]
         assert row["steps"][0] < row["steps"][1] < row["steps"][2]
