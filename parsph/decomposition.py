@@ -275,8 +275,9 @@ class SlabRing:
             for name in position_fields:
                 getattr(ps, name)[:n, axis][over] -= a.period
 
-    def migrate(self, ps):
-        """Hand every owned particle whose y left the slab to its owner, through the ring, as often as needed.
+    def migrate(self, ps, key="pos"):
+        """Hand every owned particle whose y (of field ``key``) is outside the slab to its owner, through
+        the ring, as often as needed.
 
         Each round moves the strays one slab toward their owner (the shorter
         way round); rounds go on until no rank has any (one all-reduce each).
@@ -286,7 +287,7 @@ class SlabRing:
             return
         while True:
             n = ps.n_own
-            owner = self.owner(ps.pos[:n, 1])
+            owner = self.owner(getattr(ps, key)[:n, 1])
             away = owner != self.rank
             self._flag[0] = int(away.any())
             self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
@@ -342,8 +343,10 @@ class SlabRing:
             arr[n:n + k] = allrows[:, c:c + w].reshape((k,) + arr.shape[1:]).astype(arr.dtype)
             c += w
         coords[n:n + k] = allrows[:, c:c + 3].astype(np.int64)
-        ps.pos[n:n + self.n_below, 1] += self.shift_below
-        ps.pos[n + self.n_below:n + k, 1] += self.shift_above
+        for f in ("pos", "ref"):
+            if f in ghost_fields:
+                getattr(ps, f)[n:n + self.n_below, 1] += self.shift_below
+                getattr(ps, f)[n + self.n_below:n + k, 1] += self.shift_above
         if r == 0:
             coords[n:n + self.n_below, 1] -= ny
         if r == P - 1:
@@ -377,7 +380,9 @@ class SlabRing:
             for f in image_fields:
                 arr = getattr(ps, f)
                 arr[n:n + k] = arr[src]
-            ps.pos[n:n + k, axis] += shift
+            for f in ("pos", "ref"):
+                if f in image_fields:
+                    getattr(ps, f)[n:n + k, axis] += shift
             coords[n:n + k] = coords[src]
             coords[n:n + len(lo), axis] += a.n
             coords[n + len(lo):n + k, axis] -= a.n

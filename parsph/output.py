@@ -26,6 +26,11 @@ is a restart point. In a file:
     /layout/y_range        (P, 2)         min and max y of those particles (NaN: none)
     /layout/bin_start      (P, B+1)       first row of each of B equal y-bins of [y_min, y_max] per rank
     /layout/memory_index   (N,) i4        each row's place in the writer rank's memory (restored on restart)
+    /restart/position      (N, dim)       the solver's positions as it holds them: wrapped into the box
+                                          only at its last neighbour-list build, so they may lie up to
+                                          that build's drift outside it [m]
+    /restart/ref           (N, dim)       the positions at that build (in the box) [m]: a restart builds
+                                          the same list from them and continues bit for bit
 
 Writing: every rank writes its particles as one hyperslab at the offset given
 by a scan of the particle counts, in one collective H5Dwrite per dataset; a
@@ -287,14 +292,18 @@ class Output:
                 v = np.zeros((n, 3), np.float32)
                 v[:, :2] = ordered(fields["velocity"])
                 yield "particles", "velocity_xyz", v
+            if "position_raw" in fields:  # the solver's exact state: what a restart continues from
+                yield "restart", "position", ordered(fields["position_raw"]).astype(np.float64, copy=False)
+                yield "restart", "ref", ordered(fields["ref"]).astype(np.float64, copy=False)
             # each row's place in the writer's memory: a restart on the same slabs restores that order
             itype = np.int32 if counts.max() < 2 ** 31 else np.int64
             yield "layout", "memory_index", (np.arange(n) if order is None else order).astype(itype)
 
-        units = dict(UNITS, mass=MASS_UNITS[dim], velocity_xyz="m/s")
+        units = dict(UNITS, mass=MASS_UNITS[dim], velocity_xyz="m/s", ref="m")
         tables = (("offset", offset, None), ("y_range", y_range, None), ("bin_start", bin_start, comm.rank))
         if self.parallel:
-            groups = {"particles": f.create_group("particles"), "layout": f.create_group("layout")}
+            groups = {"particles": f.create_group("particles"), "layout": f.create_group("layout"),
+                      "restart": f.create_group("restart")}
             for grp, key_, arr in arrays():
                 d = groups[grp].create_dataset(key_, (self.N,) + arr.shape[1:], dtype=arr.dtype)
                 if key_ in units:
@@ -309,8 +318,8 @@ class Output:
                 else:  # rank 0 the whole table
                     write_rows(d, 0, arr if self.root else arr[:0], self.dxpl)
         else:
-            groups = {"particles": f.create_group("particles"), "layout": f.create_group("layout")} \
-                if self.root else None
+            groups = {"particles": f.create_group("particles"), "layout": f.create_group("layout"),
+                      "restart": f.create_group("restart")} if self.root else None
             for grp, key_, arr in arrays():
                 arr = np.ascontiguousarray(arr)
                 width = int(np.prod(arr.shape[1:], dtype=np.int64))
@@ -473,7 +482,8 @@ def _rounds(ranges, size):
 
 
 def read_particles(path, comm, lo, hi, dxpl=None):
-    """The particles of one output file with lo <= y < hi (id, kind, mass, position, velocity).
+    """The particles of one output file with lo <= y < hi (id, kind, mass, position, velocity, and the
+    solver's exact state position_raw, ref where the file has them).
 
     Collective on ``comm`` under the mpio driver (every rank the same number of
     collective reads, empty where it has nothing left to read); with serial HDF5
@@ -498,6 +508,10 @@ def read_particles(path, comm, lo, hi, dxpl=None):
     shapes = {key: g[key].shape[1:] for key in RESTART_FIELDS}
     dtypes = dict(FILE_DTYPES)
     sources = {key: g[key] for key in RESTART_FIELDS}
+    if "restart" in f and "ref" in f["restart"]:  # the solver's exact state (see the module docstring)
+        for key, name in (("position_raw", "position"), ("ref", "ref")):
+            sources[key] = f["restart"][name]
+            shapes[key], dtypes[key] = f["restart"][name].shape[1:], np.float64
     if offset is not None and "memory_index" in f["layout"]:  # (writer rank << 32) + place in its memory
         sources["order"] = f["layout/memory_index"]
         shapes["order"], dtypes["order"] = (), np.int64

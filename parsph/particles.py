@@ -23,7 +23,7 @@ import numpy as np
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 # recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
-DERIVED = ("acc", "theta", "disp", "ref")
+DERIVED = ("acc", "theta", "disp")
 
 
 class Particles:

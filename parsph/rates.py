@@ -59,7 +59,8 @@ class Rates:
         return order
 
     def build(self, ps, coords, box):
-        """Sort the n local particles into cells and list their unique pairs within 2h + skin.
+        """Sort the n local particles into cells and list their unique pairs within 2h + skin of their
+        reference positions ``ps.ref`` (the positions at this build).
 
         ``coords``: integer cell coordinates per particle; ``box``: (lo, size,
         centre_lo, centre_hi) of the local cell box (SlabRing.local_box).
@@ -88,7 +89,7 @@ class Rates:
             self.pi = np.zeros(16 * n + 64, np.int32)
             self.pj = np.zeros(16 * n + 64, np.int32)
         while True:
-            count = neighbours.build_pairs(ps.pos, self.need, self.order, self.start, self.cell, n, size,
+            count = neighbours.build_pairs(ps.ref, self.need, self.order, self.start, self.cell, n, size,
                                            self.grid.cutoff, self.pstart, self.pi, self.pj)
             if count >= 0:
                 break

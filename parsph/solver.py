@@ -39,7 +39,7 @@ from .rates import Rates
 from . import equations
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
-GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho")
+GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
 
 
 class Interrupted(RuntimeError):
@@ -55,6 +55,7 @@ class Simulation:
         """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run."""
         self.cfg = cfg
         self.comm = comm
+        self._restore = False  # the first build takes the list's reference positions from a snapshot
         self.scene = cfg.scene
         self.kernel = get_kernel(cfg.kernel, cfg.dim)
         self.skin = cfg.get("numerics.skin") * cfg.h
@@ -66,8 +67,13 @@ class Simulation:
             self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
         elif "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
             p = read_particles(state["path"], comm, self.ring.lo, self.ring.hi)
-            self.ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"], p["position"],
-                                            p["velocity"])
+            exact = "ref" in p  # the solver's state as it held it: continue from the same neighbour list
+            self.ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"],
+                                            p["position_raw"] if exact else p["position"], p["velocity"])
+            if exact:
+                self.ps.add_field("ref")
+                self.ps.ref[:self.ps.n_own] = p["ref"]
+                self._restore = True
             del p
         else:  # a state given as arrays (id, kind, mass, position, velocity): this slab's rows
             y = state["position"][:, 1]
@@ -76,7 +82,7 @@ class Simulation:
                                             state["mass"][mine], state["position"][mine],
                                             state["velocity"][mine])
         ps = self.ps
-        ps.add_field("ref")
+        ps.add_field("ref")  # positions at the last build of the neighbour list
         self.position_fields = ("pos",)
         if cfg.integrator == "midpoint":
             ps.add_field("pos0")
@@ -122,18 +128,19 @@ class Simulation:
     # ---- the neighbour list ---------------------------------------------------------
     def _sync(self):
         """Refresh the ghosts, test the list, agree (one all-reduce) on blow-up, stop and rebuild."""
+        if not self._built:
+            self._rebuild(restore=self._restore)
+            self._restore = False
         t0 = time.perf_counter()
         ps = self.ps
-        spread = 0.0
-        if self._built:  # positions may have changed (a step, or a caller's perturbation)
-            n = ps.n_own
-            np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])
-            self.ring.forward(ps)
-            spread = self.rates.spread(ps)
+        n = ps.n_own
+        np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])  # positions may have changed (a step, a caller)
+        self.ring.forward(ps)
+        spread = self.rates.spread(ps)
         f = self._flags
         f[0] = self._bad
         f[1] = self._stop_local
-        f[2] = 1.0 if (not self._built or self.force_rebuild or not spread < self.skin) else 0.0
+        f[2] = 1.0 if (self.force_rebuild or not spread < self.skin) else 0.0
         self._flags_all = self.collect.max(f)
         self._bad = 0
         self._stop_local = 0
@@ -144,21 +151,29 @@ class Simulation:
             self.check()  # raises GuardError on every rank
         if stop:
             self.stop = int(stop)
-        if rebuild or stop:
+        if rebuild:
             self._rebuild()
         self.force_rebuild = False
 
-    def _rebuild(self):
-        """Wrap, migrate, choose the ghosts and images, build the list (collective)."""
+    def _rebuild(self, restore=False):
+        """Wrap, migrate, choose the ghosts and images, build the list (collective).
+
+        The list is built from the reference positions ``ref``: the current
+        ones, wrapped into the box, except on ``restore``, where ``ref`` came
+        from a snapshot with the positions as the writing run held them, so
+        that the same list is built again and the run continues bit for bit.
+        """
         t0 = time.perf_counter()
         ps, ring = self.ps, self.ring
         ps.n = ps.n_own
-        ring.wrap(ps, self.position_fields)
-        ring.migrate(ps)
+        if not restore:
+            ring.wrap(ps, self.position_fields)
+            ps.ref[:ps.n_own] = ps.pos[:ps.n_own]
+        ring.migrate(ps, "ref")
         n = ps.n_own
         origin, side, ncell, periodic = self._grid_params
         coords = np.zeros((ps.capacity, 3), np.int64)
-        cell_coords(ps.pos, 0, n, origin, side, ncell, periodic, coords)
+        cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
         box = ring.local_box(ps.dim)
         order = self.rates.sort_owned(coords, ps.gid, n, box)
@@ -166,8 +181,7 @@ class Simulation:
         coords[:n] = coords[order]
         coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
-        ps.ref[:n] = ps.pos[:n]
-        ps.disp[:ps.n] = 0.0
+        ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
         self.rates.build(ps, coords, box)
         self._coords = coords
         self._built = True
@@ -263,7 +277,8 @@ class Simulation:
                 if a.periodic:
                     pos[:, axis] %= a.period
             fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": pos,
-                      "velocity": ps.vel[:n], "theta": ps.theta[:n]}
+                      "velocity": ps.vel[:n], "theta": ps.theta[:n],
+                      "position_raw": ps.pos[:n], "ref": ps.ref[:n]}  # the exact state, for a restart
         return Frame(self.t, self.step, self.dt, self.profile(), fields)
 
     # ---- the loop ----------------------------------------------------------------
@@ -290,8 +305,6 @@ class Simulation:
         stop = 0
         snapshots = cfg.get("output.snapshots")
         while True:
-            if output is not None and snapshots and pending and self._output_due(pending[0]):
-                self.force_rebuild = True  # a restart from this snapshot starts from a fresh list
             self.compute_rates()
             stop = self.stop
             while pending and self._output_due(pending[0]) and output is not None:

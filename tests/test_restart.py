@@ -7,7 +7,7 @@ The serial tests launch ``parsph`` (and ``mpirun -n 2 parsph``) themselves and
 are skipped inside an mpirun job; the one test marked ``mpi`` restarts in
 process on COMM_WORLD (pytest-mpi, any rank count).
 
-Case: the paper's run file on a short box (Ly = 0.002 m, 560 particles).
+Case: the paper's run file on a short box (Ly = 0.0024 m, 672 particles).
 Uninterrupted: t_end = 0.004 s, outputs at [0.002, 0.004]. First leg:
 t_end = 0.002 s, output at [0.002]; then ``--restart`` with the uninterrupted
 run's t_end and times. The restarted run must end bit for bit equal to the
@@ -185,6 +185,7 @@ PHYSICS_CHANGES = {
     "numerics.pressure_form": "consistent",
     "domain.L": "0.012",
     "domain.Ly": "0.004",
+    "numerics.skin": "0.3",
     "material.rho_s": "2500.0",
     "material.theta0": "0.3",
     "material.k": "2.0",
