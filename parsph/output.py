@@ -1,6 +1,6 @@
 """HDF5 output: one file per output time, written collectively through h5py's mpio driver.
 
-Directory layout (README.md, "Output files", has the table with units)::
+Directory layout (docs/output.md has the table with units)::
 
     DIR/<name>_NNNN.h5     output k = NNNN: profile and particle snapshot at one time
     DIR/<name>.xdmf        ParaView sidecar: the snapshots as a time series of points

@@ -1,4 +1,4 @@
-"""The README's table of validated cases, the short-box study and the cost of the pressure term.
+"""The table of validated cases in docs/validation.md, the short-box study and the cost of the pressure term.
 
     .venv/bin/python scripts/validate_scenes.py [--out results] [--ranks 2] [--quick]
                                                 [--scenes NAME ...] [--parts 1 2 3]
