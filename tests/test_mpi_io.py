@@ -225,18 +225,21 @@ def test_xdmf_sidecar(runs, name):
 
 @pytest.mark.parametrize("name", list(RUNS))
 def test_layout_describes_the_writer_ranks(runs, name):
-    """/layout: rank r's rows are offset[r] .. offset[r+1]-1, their y lie in y_range[r] and in
-    [r Ly / P, (r+1) Ly / P) (the slab it owned), and bin_start splits them into y-bins."""
+    """/layout: rank r's rows are offset[r] .. offset[r+1]-1, their y lie in y_range[r], their y at the
+    last build of the neighbour list (/restart/ref, when particles last migrated) in [r Ly / P,
+    (r+1) Ly / P) (the slab it owned), and bin_start splits them into y-bins."""
     P = max(1, RUNS[name][0])
     for k in range(len(FILES)):
         with h5py.File(h5(runs, name, k), "r") as f:
             y = f["particles/position"][:, 1]
+            y_ref = f["restart/ref"][:, 1]
             offset, y_range, starts = (f[f"layout/{key}"][()] for key in ("offset", "y_range", "bin_start"))
         assert offset[0] == 0 and offset[-1] == N and len(offset) == P + 1 and starts.shape[0] == P
         for r in range(P):
             rows = y[offset[r]:offset[r + 1]]
             assert rows.size and y_range[r].tolist() == [rows.min(), rows.max()]
-            assert np.all((rows >= r * LY / P * (1 - 1e-12)) & (rows < (r + 1) * LY / P * (1 + 1e-12)))
+            owned = y_ref[offset[r]:offset[r + 1]]
+            assert np.all((owned >= r * LY / P * (1 - 1e-12)) & (owned < (r + 1) * LY / P * (1 + 1e-12)))
             assert starts[r, 0] == offset[r] and starts[r, -1] == offset[r + 1]
             assert np.all(np.diff(starts[r]) >= 0)
 
