@@ -9,19 +9,23 @@ G((theta_i + theta_j)/2) = 10^b * 10^(a theta_i / 2) * 10^(a theta_j / 2),
 so each particle carries ``half_modulus = 10^(a theta / 2)`` and the loop
 multiplies.
 """
+import math
+
 import numpy as np
 from numba import njit
+
+LN10 = math.log(10.0)
 
 
 @njit(cache=True)
 def _modulus(theta, a, b):
-    return 10.0 ** (a * theta + b)
+    return math.exp((a * theta + b) * LN10)  # 10^x as exp(x ln 10): a third of pow's cost in the loops
 
 
 @njit(cache=True)
 def half_modulus(theta, a):
     """10^(a theta / 2): the per-particle factor of G at the pair mean (the pair loops call it)."""
-    return 10.0 ** (0.5 * a * theta)
+    return math.exp(0.5 * a * LN10 * theta)
 
 
 def modulus(theta, a=8.76, b=-1.183):
