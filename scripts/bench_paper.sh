@@ -23,7 +23,7 @@ import re, subprocess, sys, platform, os
 out = sys.argv[1]
 rows = {}
 for n in (1, 2):
-    m = re.search(r"done: (\d+) steps in ([\d.]+) s \(([\d.e+]+) particle-steps/s\)", open(f"{out}/ranks{n}.log").read())
+    m = re.search(r"done: (\d+) steps in ([\d.]+) s \(([\d.e+]+) particle-steps/s", open(f"{out}/ranks{n}.log").read())
     rows[n] = (int(m.group(1)), float(m.group(2)), float(m.group(3)))
 rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
 lines = [f"Paper case to t = 0.5 s, commit {rev}, {platform.node()} ({os.cpu_count()} cores)", "",
