@@ -29,8 +29,15 @@ def half_modulus(theta, a):
 
 
 def modulus(theta, a=8.76, b=-1.183):
-    """G(theta) [Pa], for a number or an array; the one definition of G (numba code calls ``_modulus``)."""
-    return 10.0 ** (a * np.asarray(theta) + b) if np.ndim(theta) else _modulus(float(theta), a, b)
+    """G(theta) [Pa], for a number or an array; the one definition of G (numba code calls ``_modulus``).
+
+    Raises OverflowError where G does not fit a float (as Python's own power does)."""
+    if np.ndim(theta):
+        return np.array([modulus(float(t), a, b) for t in np.ravel(theta)]).reshape(np.shape(theta))
+    g = _modulus(float(theta), float(a), float(b))
+    if not math.isfinite(g) and math.isfinite(theta) and math.isfinite(a) and math.isfinite(b):
+        raise OverflowError(f"G = 10^({a:g} * {theta:g} + {b:g}) does not fit a float")
+    return g
 
 
 def viscosity(theta, k):

@@ -15,6 +15,7 @@ from .integrate import INTEGRATORS
 from .scenes import SCENE_NAMES, get_scene
 
 REQUIRED = object()
+MAX_NEIGHBOURS = 5000  # lattice neighbours within the support: memory and time per particle grow with it
 
 
 def bytes_per_particle(cfg):
@@ -332,6 +333,11 @@ def build(raw, text):
         raise ConfigError(hkey, f"h = {h:g} m (h / dx = {h / dx:.3g}) is too large: the kernel support "
                           f"2h = {support:g} m is wider than the channel (L = {L:g} m) and the box "
                           f"(L_y = {Ly:g} m{f', L_z = {Lz:g} m' if dim == 3 else ''})")
+    ball = math.pi * (support / dx) ** 2 if dim == 2 else 4.0 / 3.0 * math.pi * (support / dx) ** 3
+    if ball > MAX_NEIGHBOURS:
+        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is too large: the kernel support {kern.support:g}h holds "
+                          f"about {ball:.3g} lattice neighbours per particle, more than {MAX_NEIGHBOURS} "
+                          f"(the usual h / dx: 1.2 to 2.5, some 20 to 80 neighbours)")
     need_layers = math.ceil(support / dx - 1e-9)
     layers = walls["layers"] or need_layers
     if scene.walls and layers * dx < support * (1 - 1e-9):

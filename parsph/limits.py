@@ -113,11 +113,15 @@ def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
     H = F[:, None, None] * np.eye(dim) + Fp_over_r[:, None, None] * R[:, :, None] * R[:, None, :]
     grids = np.meshgrid(*[np.linspace(0.0, math.pi / s, nkappa) for s in spacing], indexing="ij")
     kappa = np.stack([g.ravel() for g in grids], axis=1)
-    phase = kappa @ R.T                       # [nk, nbr]
-    b = (np.sin(phase) * F) @ R
-    one_minus_cos = 1.0 - np.cos(phase)
-    D = np.einsum("kn,nij->kij", one_minus_cos, H)
-    V = -(one_minus_cos * F).sum(axis=1)
+    nk = len(kappa)
+    b, D, V = np.zeros((nk, dim)), np.zeros((nk, dim, dim)), np.zeros(nk)
+    chunk = max(1, (1 << 21) // max(len(r), 1))  # wave vectors per pass: [chunk, nbr] arrays stay below 16 MB
+    for lo in range(0, nk, chunk):
+        phase = kappa[lo:lo + chunk] @ R.T                       # [chunk, nbr]
+        b[lo:lo + chunk] = (np.sin(phase) * F) @ R
+        one_minus_cos = 1.0 - np.cos(phase)
+        D[lo:lo + chunk] = np.einsum("kn,nij->kij", one_minus_cos, H)
+        V[lo:lo + chunk] = -(one_minus_cos * F).sum(axis=1)
     return kappa, S, b, D, V
 
 
