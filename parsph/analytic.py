@@ -11,6 +11,8 @@ as t -> 0 (about 150 terms at t = 1e-4 s for Table 1, 46,000 at 1e-9 s).
 """
 import math
 
+from .closures import modulus
+
 import numpy as np
 
 
@@ -94,7 +96,7 @@ def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=400
     stiff = G_a * math.log(10.0) if form == "paper" else 0.0
 
     def rhs(th):
-        return -rho_s * g * th / (10.0 ** (G_a * th + G_b) * (1.0 + stiff * th))
+        return -rho_s * g * th / (modulus(th, G_a, G_b) * (1.0 + stiff * th))
 
     def column(theta_b, end=L, n=steps):
         """RK4 from theta_b at x = 0 to x = end (either side of 0)."""

@@ -2,6 +2,7 @@
 
     parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
     parsph check OUTPUT [--tol 0.02]
+    parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...]
     parsph plot OUTPUT [--png FILE]
 
 Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
@@ -112,7 +113,9 @@ def _run_reporting(comm, args, say, signals):
 
 
 def _restart_state(cfg, path):
-    """The snapshot to continue from, after checking that its physics matches ``cfg``."""
+    """The snapshot to continue from, after checking from its attributes alone (no particle
+    arrays) that its physics matches ``cfg``: {"attrs": ..., "path": ...} for Simulation,
+    whose ranks then read only their own slab's particles (output.read_particles)."""
     from . import config
     from .output import last_snapshot, output_files, read_state
     try:
@@ -199,6 +202,8 @@ def _run(comm, args, say, signals):
         f"{steps} to t = {cfg.t_end:g} s{start}; "
         f"Re = {cfg.reynolds:.4g}, nu = {cfg.nu:.4g} m^2/s -> {out_dir}/{stem}_NNNN.h5")
     out = Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first)
+    if getattr(args, "wrap_output", None) is not None:  # parsph converge times the loop through it
+        out = args.wrap_output(out)
 
     def progress(s, rate, eta):
         of = "" if cfg.dt_auto else f"/{cfg.nsteps}"
@@ -237,18 +242,44 @@ def _existing(out_dir, stem):
     return sorted((f, int(m.group(1))) for f in os.listdir(out_dir) if (m := pat.match(f)))
 
 
+def _current_scales(p):
+    """Per output time, what is left of a decaying flow (the scene's current_scale), else None."""
+    from .config import ConfigError, loads
+    from .scenes import error_scale
+    try:
+        cfg = loads(p["attrs"]["run_file"])
+    except (ConfigError, KeyError):
+        return None
+    if cfg.scene.current_scale is None:
+        return None
+    return [error_scale(cfg, float(t)) for t in p["time"]]
+
+
 def print_table(path, tol=None):
-    """Print the error table of a run's outputs; return the worst max error."""
+    """Print the error table of a run's outputs; return the worst max error.
+
+    For a decaying flow the errors are relative to what is left of it at each time."""
     from .output import read_profile
+    from .profile import errors
     p = read_profile(path)
-    field = {"vy": "v_y", "theta": "theta"}.get(p["attrs"].get("error_field", "vy"), "v_y")
+    key = p["attrs"].get("error_field", "vy")
+    field = {"vy": "v_y", "theta": "theta"}.get(key, "v_y")
     scale = p["attrs"].get("error_scale", p["attrs"].get("V_w", 1.0))
-    print(f"errors of {field} against the reference, relative to {scale:.4g}")
-    print(f"{'t [s]':>10} {'max error':>12} {'rms error':>12}")
+    now = _current_scales(p)
+    if now is None:
+        print(f"errors of {field} against the reference, relative to {scale:.4g}")
+        print(f"{'t [s]':>10} {'max error':>12} {'rms error':>12}")
+        rows = [(t, emax, erms, "") for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"])]
+    else:
+        print(f"errors of {field} against the reference, relative to the amplitude left at each time "
+              f"(initially {scale:.4g})")
+        print(f"{'t [s]':>10} {'amplitude':>12} {'max error':>12} {'rms error':>12} {'max / initial':>13}")
+        rows = [(t, *errors(f, fe, s), f" {s:>12.4g}", f" {emax:>13.3e}") for t, f, fe, s, emax
+                in zip(p["time"], p[key], p[key + "_exact"], now, p["err_max"])]
     worst = 0.0
-    for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"]):
+    for t, emax, erms, amp, *initial in rows:
         flag = "" if tol is None or emax <= tol else "  > tol"
-        print(f"{t:>10.4g} {emax:>12.3e} {erms:>12.3e}{flag}")
+        print(f"{t:>10.4g}{amp} {emax:>12.3e} {erms:>12.3e}{''.join(initial)}{flag}")
         worst = max(worst, emax) if emax == emax else float("nan")
     return worst
 
@@ -335,6 +366,21 @@ def build_parser():
     c = sub.add_parser("check", help="print the error table of a run; exit 1 above --tol")
     c.add_argument("output", help="output directory or file")
     c.add_argument("--tol", type=float, default=0.02, help="largest max error / V_w accepted (default 0.02)")
+    cv = sub.add_parser("converge", help="run at several resolutions; estimated error and cost of each "
+                                         "(under mpirun for several ranks)")
+    cv.add_argument("config", help="run file (TOML): the coarsest level")
+    cv.add_argument("--levels", type=int, default=3, help="resolutions N_x, R N_x, R^2 N_x, ... (default 3)")
+    cv.add_argument("--ratio", type=int, default=2, help="refinement ratio R (default 2)")
+    cv.add_argument("--target", type=float, metavar="ERR",
+                    help="predict the cheapest N_x (and --family) with max error <= ERR at every output time")
+    cv.add_argument("--out", help="directory of the levels and of converge.json / converge.png "
+                                  "(default out/<run-file name>_converge)")
+    cv.add_argument("--family", action="append", metavar="NAME",
+                    help="numerics to study: given (the run file's; default), fast, accurate, paper "
+                         "(the presets'); repeat to compare")
+    cv.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
+    cv.add_argument("--force", action="store_true", help="overwrite a level's outputs that cannot be reused")
+    cv.add_argument("--threads", type=int, default=1, metavar="N", help="threads per rank (as for run)")
     pl = sub.add_parser("plot", help="PNG of the simulated profiles over the reference")
     pl.add_argument("output", help="output directory or file")
     pl.add_argument("--png", help="PNG path (default next to the outputs)")
@@ -346,6 +392,9 @@ def main(argv=None):
     try:
         if args.command == "run":
             return cmd_run(args)
+        if args.command == "converge":
+            from .converge import cmd_converge
+            return cmd_converge(args)
         return {"check": cmd_check, "plot": cmd_plot}[args.command](args)
     except UsageError as e:
         print(f"parsph: error: {e}", file=sys.stderr)

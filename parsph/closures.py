@@ -9,17 +9,28 @@ G((theta_i + theta_j)/2) = 10^b * 10^(a theta_i / 2) * 10^(a theta_j / 2),
 so each particle carries ``half_modulus = 10^(a theta / 2)`` and the loop
 multiplies.
 """
+import math
+
 import numpy as np
+from numba import njit
+
+LN10 = math.log(10.0)
+
+
+@njit(cache=True)
+def _modulus(theta, a, b):
+    return math.exp((a * theta + b) * LN10)  # 10^x as exp(x ln 10): a third of pow's cost in the loops
+
+
+@njit(cache=True)
+def half_modulus(theta, a):
+    """10^(a theta / 2): the per-particle factor of G at the pair mean (the pair loops call it)."""
+    return math.exp(0.5 * a * LN10 * theta)
 
 
 def modulus(theta, a=8.76, b=-1.183):
-    """G(theta) [Pa]."""
-    return 10.0 ** (a * np.asarray(theta) + b) if np.ndim(theta) else 10.0 ** (a * theta + b)
-
-
-def half_modulus(theta, a):
-    """10^(a theta / 2): the per-particle factor of G at the pair mean."""
-    return 10.0 ** (0.5 * a * theta)
+    """G(theta) [Pa], for a number or an array; the one definition of G (numba code calls ``_modulus``)."""
+    return 10.0 ** (a * np.asarray(theta) + b) if np.ndim(theta) else _modulus(float(theta), a, b)
 
 
 def viscosity(theta, k):

@@ -2,7 +2,7 @@
 
 A run file has the sections below; ``parsph run --set section.key=value``
 overrides any key. Every problem raises :class:`ConfigError` naming the key.
-The full key list with units is in README.md ("Run-file keys").
+The full key list with units is in docs/running.md ("Run-file keys").
 """
 from dataclasses import dataclass, field, replace
 import math
@@ -23,7 +23,7 @@ def bytes_per_particle(cfg):
     Fields (about 300 + 100 dim bytes) plus the neighbour list, 12 bytes per
     entry for the neighbours within 2h (the disc or ball's lattice points,
     +25% for a compressed lattice) and a margin of 4, with 30% spare capacity.
-    Measured (README, "Performance"): 550 B in 2-D, 1.7 KB in 3-D at
+    Measured (docs/performance.md): 550 B in 2-D, 1.7 KB in 3-D at
     h = 1.25 dx; this gives 950 B and 1.9 KB.
     """
     reach = 2.0 * cfg.h

@@ -90,14 +90,16 @@ def min_length(P, cutoff, m):
 
 
 @njit(cache=True)
-def _pack_forward(pos, vel, disp, idx, k, out):
+def _pack_forward(pos, vel, disp, up, out_up, down, out_down):
+    """Rows (pos, vel, disp) of the owned particles ``up`` and ``down`` into the two send buffers."""
     d = pos.shape[1]
-    for r in range(k):
-        i = idx[r]
-        for c in range(d):
-            out[r, c] = pos[i, c]
-            out[r, d + c] = vel[i, c]
-            out[r, 2 * d + c] = disp[i, c]
+    for idx, out in ((up, out_up), (down, out_down)):
+        for r in range(idx.shape[0]):
+            i = idx[r]
+            for c in range(d):
+                out[r, c] = pos[i, c]
+                out[r, d + c] = vel[i, c]
+                out[r, 2 * d + c] = disp[i, c]
 
 
 @njit(cache=True)
@@ -125,9 +127,11 @@ def _unpack_forward(below, above, start, shift_below, shift_above, pos, vel, dis
 
 
 @njit(cache=True)
-def _pack_scalar(arr, idx, k, out):
-    for r in range(k):
-        out[r] = arr[idx[r]]
+def _pack_scalar(arr, up, out_up, down, out_down):
+    for r in range(up.shape[0]):
+        out_up[r] = arr[up[r]]
+    for r in range(down.shape[0]):
+        out_down[r] = arr[down[r]]
 
 
 @njit(cache=True)
@@ -232,8 +236,8 @@ class SlabRing:
         d = ps.dim
         width = 3 * d
         nu, nd = len(self.send_up), len(self.send_down)
-        _pack_forward(ps.pos, ps.vel, ps.disp, self.send_up, nu, self._buf(("send up", "fwd"), nu, width))
-        _pack_forward(ps.pos, ps.vel, ps.disp, self.send_down, nd, self._buf(("send down", "fwd"), nd, width))
+        _pack_forward(ps.pos, ps.vel, ps.disp, self.send_up, self._buf(("send up", "fwd"), nu, width),
+                      self.send_down, self._buf(("send down", "fwd"), nd, width))
         below, above = self._exchange("fwd", nu, nd, width)
         _unpack_forward(below, above, ps.n_own, self.shift_below, self.shift_above, ps.pos, ps.vel, ps.disp,
                         self.img_src, self.img_axis, self.img_shift, ps.n_own + self.n_below + self.n_above)
@@ -241,8 +245,8 @@ class SlabRing:
     def refresh(self, ps, arr):
         """One scalar per particle (``arr``, e.g. ps.rho) of the ghosts and images from their originals."""
         nu, nd = len(self.send_up), len(self.send_down)
-        _pack_scalar(arr, self.send_up, nu, self._buf(("send up", "scalar"), nu, 1)[:, 0])
-        _pack_scalar(arr, self.send_down, nd, self._buf(("send down", "scalar"), nd, 1)[:, 0])
+        _pack_scalar(arr, self.send_up, self._buf(("send up", "scalar"), nu, 1)[:, 0],
+                     self.send_down, self._buf(("send down", "scalar"), nd, 1)[:, 0])
         below, above = self._exchange("scalar", nu, nd, 1)
         _unpack_scalar(below[:, 0], above[:, 0], ps.n_own, arr, self.img_src,
                        ps.n_own + self.n_below + self.n_above)
@@ -271,8 +275,9 @@ class SlabRing:
             for name in position_fields:
                 getattr(ps, name)[:n, axis][over] -= a.period
 
-    def migrate(self, ps):
-        """Hand every owned particle whose y left the slab to its owner, through the ring, as often as needed.
+    def migrate(self, ps, key="pos"):
+        """Hand every owned particle whose y (of field ``key``) is outside the slab to its owner, through
+        the ring, as often as needed.
 
         Each round moves the strays one slab toward their owner (the shorter
         way round); rounds go on until no rank has any (one all-reduce each).
@@ -282,7 +287,7 @@ class SlabRing:
             return
         while True:
             n = ps.n_own
-            owner = self.owner(ps.pos[:n, 1])
+            owner = self.owner(getattr(ps, key)[:n, 1])
             away = owner != self.rank
             self._flag[0] = int(away.any())
             self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
@@ -338,8 +343,10 @@ class SlabRing:
             arr[n:n + k] = allrows[:, c:c + w].reshape((k,) + arr.shape[1:]).astype(arr.dtype)
             c += w
         coords[n:n + k] = allrows[:, c:c + 3].astype(np.int64)
-        ps.pos[n:n + self.n_below, 1] += self.shift_below
-        ps.pos[n + self.n_below:n + k, 1] += self.shift_above
+        for f in ("pos", "ref"):
+            if f in ghost_fields:
+                getattr(ps, f)[n:n + self.n_below, 1] += self.shift_below
+                getattr(ps, f)[n + self.n_below:n + k, 1] += self.shift_above
         if r == 0:
             coords[n:n + self.n_below, 1] -= ny
         if r == P - 1:
@@ -373,7 +380,9 @@ class SlabRing:
             for f in image_fields:
                 arr = getattr(ps, f)
                 arr[n:n + k] = arr[src]
-            ps.pos[n:n + k, axis] += shift
+            for f in ("pos", "ref"):
+                if f in image_fields:
+                    getattr(ps, f)[n:n + k, axis] += shift
             coords[n:n + k] = coords[src]
             coords[n:n + len(lo), axis] += a.n
             coords[n + len(lo):n + k, axis] -= a.n

@@ -44,6 +44,7 @@ import math
 
 from numba import njit, prange
 
+from .closures import _modulus, half_modulus
 from .kernels import kernel_w_f
 from .particles import FLUID
 
@@ -140,8 +141,8 @@ def pressure_factor(th, rho_i, G_a, G_b, consistent):
     with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly.
     """
     if len(consistent):
-        return 10.0 ** (G_a * th + G_b) / (G_a * math.log(10.0)) / (rho_i * rho_i)
-    return 10.0 ** (0.5 * G_a * th)
+        return _modulus(th, G_a, G_b) / (G_a * math.log(10.0)) / (rho_i * rho_i)
+    return half_modulus(th, G_a)
 
 
 @njit(cache=True, parallel=True)

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
-from mpi4py import MPI
 
 from .particles import FLUID
 
@@ -42,8 +41,10 @@ class GuardError(RuntimeError):
         self.result = result
 
 
-def run_checks(comm, ps, cfg, step, t):
-    """Collective run-time checks of the owned particles; raises GuardError on every rank on failure."""
+def run_checks(collect, ps, cfg, step, t):
+    """Collective run-time checks of the owned particles; raises GuardError on every rank on failure.
+
+    ``collect``: the solver's :class:`parsph.collectives.Collectives`."""
     n = ps.n_own
     pos, vel = ps.pos[:n], ps.vel[:n]
     fluid = ps.kind[:n] == FLUID
@@ -66,12 +67,9 @@ def run_checks(comm, ps, cfg, step, t):
     fastest = np.array([speed2[k] if n else -1.0, ps.gid[k] if n else -1, pos[k, 0] if n else 0.0,
                         pos[k, 1] if n else 0.0])
     energy = np.array([0.5 * (ps.mass[:n][fluid] * (vel[fluid] ** 2).sum(axis=1)).sum(), ps.mass[:n][fluid].sum()])
-    reports = np.zeros((comm.size, 6))
-    comm.Allgather(report, reports)
-    fast = np.zeros((comm.size, 4))
-    comm.Allgather(fastest, fast)
-    totals = np.zeros(2)
-    comm.Allreduce(energy, totals, op=MPI.SUM)
+    reports = collect.gather(report)
+    fast = collect.gather(fastest)
+    totals = collect.sum(energy)
     failed = reports[reports[:, 0] > 0]
     where = f"at step {step}, t = {t:.6g} s"
     y_shown = lambda y: y % cfg.Ly if math.isfinite(y) else y  # noqa: E731  (positions wrap at rebuilds only)

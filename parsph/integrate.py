@@ -11,8 +11,9 @@ Wall particles move with their prescribed velocity (r += dt v). Positions
 are not wrapped into the periodic box here: particles stay where they are
 until the next rebuild of the neighbour list, which wraps them. Each function
 updates ``jump`` (how far a particle moved in the step) and returns the number of
-owned particles whose new state is not finite, so that a blow-up is caught
-before the next pass. Particles are independent: the loops are threaded
+owned particles whose new state is not finite or that jumped further than
+``limit`` (h: run-time check 5), so that a blow-up is caught before the next
+pass. Particles are independent: the loops are threaded
 (prange), with the count as a reduction.
 """
 import math
@@ -25,8 +26,9 @@ INTEGRATORS = ("paper", "midpoint")
 
 
 @njit(cache=True, inline="always")
-def _finish(pos, vel, jump, i, old):
-    """The jump of particle i (``old``: its position before the step); 1 if its state is finite."""
+def _finish(pos, vel, jump, i, old, limit):
+    """The jump of particle i (``old``: its position before the step); 1 if its state is finite and
+    it moved no further than ``limit``."""
     ok = 1
     moved = 0.0
     for d in range(pos.shape[1]):
@@ -34,11 +36,13 @@ def _finish(pos, vel, jump, i, old):
         if not (math.isfinite(pos[i, d]) and math.isfinite(vel[i, d])):
             ok = 0
     jump[i] = math.sqrt(moved)
+    if not jump[i] <= limit:
+        ok = 0
     return ok
 
 
 @njit(cache=True, parallel=True)
-def step_paper(pos, vel, acc, kind, n_own, dt, jump):
+def step_paper(pos, vel, acc, kind, n_own, dt, jump, limit):
     """Eqs. (6)-(7)."""
     dim = pos.shape[1]
     half_dt2 = 0.5 * dt * dt
@@ -52,12 +56,12 @@ def step_paper(pos, vel, acc, kind, n_own, dt, jump):
         else:
             for d in range(dim):
                 pos[i, d] += dt * vel[i, d]
-        bad += 1 - _finish(pos, vel, jump, i, old)
+        bad += 1 - _finish(pos, vel, jump, i, old, limit)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump):
+def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit):
     """Save (r^n, v^n) and move to the midpoint state (r*, v*)."""
     dim = pos.shape[1]
     bad = 0
@@ -69,12 +73,12 @@ def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump):
             pos[i, d] += 0.5 * dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] += 0.5 * dt * acc[i, d]
-        bad += 1 - _finish(pos, vel, jump, i, old)
+        bad += 1 - _finish(pos, vel, jump, i, old, limit)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump):
+def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*)."""
     dim = pos.shape[1]
     bad = 0
@@ -84,5 +88,5 @@ def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump):
             pos[i, d] = pos0[i, d] + dt * vel[i, d]
             if kind[i] == FLUID:
                 vel[i, d] = vel0[i, d] + dt * acc[i, d]
-        bad += 1 - _finish(pos, vel, jump, i, old)
+        bad += 1 - _finish(pos, vel, jump, i, old, limit)
     return bad

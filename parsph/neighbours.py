@@ -149,8 +149,8 @@ def build_pairs(pos, need, order, start, cell, n, size, cutoff, pstart, pi, pj):
 
     The pairs of the particle at sorted place a (with the particles after it)
     are ``pstart[a] .. pstart[a+1]-1``; ``pi``/``pj`` hold their members.
-    ``pi``/``pj`` must hold every pair; if they are too short, the count is
-    returned negative (minus the pairs found so far) and the caller grows them.
+    ``pi``/``pj`` must hold every pair and one more; if they are too short, the
+    count is returned negative (minus the pairs found) and the caller grows them.
     """
     m = 2  # CELLS_PER_CUTOFF
     dim = pos.shape[1]
@@ -158,6 +158,18 @@ def build_pairs(pos, need, order, start, cell, n, size, cutoff, pstart, pi, pj):
     cap = pi.shape[0]
     npairs = 0
     nx, ny, nz = size[0], size[1], size[2]
+    # positions and needs in sorted order: the candidates of a cell row are contiguous in memory
+    xs = np.empty(n)
+    ys = np.empty(n)
+    zs = np.zeros(n)
+    ns = np.empty(n, np.bool_)
+    for b in range(n):
+        j = order[b]
+        xs[b] = pos[j, 0]
+        ys[b] = pos[j, 1]
+        if dim == 3:
+            zs[b] = pos[j, 2]
+        ns[b] = need[j]
     for a in range(n):
         pstart[a] = min(npairs, cap)
         i = order[a]
@@ -165,31 +177,29 @@ def build_pairs(pos, need, order, start, cell, n, size, cutoff, pstart, pi, pj):
         cx = c % nx
         cy = (c // nx) % ny
         cz = c // (nx * ny)
-        xi = pos[i, 0]
-        yi = pos[i, 1]
-        zi = pos[i, 2] if dim == 3 else 0.0
-        for z in range(max(cz - m, 0), min(cz + m, nz - 1) + 1):
-            for y in range(max(cy - m, 0), min(cy + m, ny - 1) + 1):
+        xi = xs[a]
+        yi = ys[a]
+        zi = zs[a]
+        need_i = ns[a]
+        for z in range(cz, min(cz + m, nz - 1) + 1):  # rows before particle a's hold only earlier places
+            for y in range(cy if z == cz else max(cy - m, 0), min(cy + m, ny - 1) + 1):
                 row = (z * ny + y) * nx
                 lo = max(start[row + max(cx - m, 0)], a + 1)
                 hi = start[row + min(cx + m, nx - 1) + 1]
                 for b in range(lo, hi):
-                    j = order[b]
-                    if not (need[i] or need[j]):
-                        continue
-                    dx = xi - pos[j, 0]
-                    dy = yi - pos[j, 1]
+                    dx = xi - xs[b]
+                    dy = yi - ys[b]
                     r2 = dx * dx + dy * dy
                     if dim == 3:
-                        dz = zi - pos[j, 2]
+                        dz = zi - zs[b]
                         r2 += dz * dz
-                    if r2 < cut2:
-                        if npairs < cap:
-                            pi[npairs] = i
-                            pj[npairs] = j
-                        npairs += 1
+                    # branch-free compaction: always store, advance only for a pair (about half the candidates)
+                    k = npairs if npairs < cap else cap - 1
+                    pi[k] = i
+                    pj[k] = order[b]
+                    npairs += (r2 < cut2) & (need_i | ns[b])
     pstart[n] = min(npairs, cap)
-    return npairs if npairs <= cap else -npairs
+    return npairs if npairs < cap else -npairs
 
 
 @njit(cache=True)

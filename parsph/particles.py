@@ -7,8 +7,9 @@ capacity so that rebuilds rarely allocate.
 
 Every field is a per-particle array of float64 (or int64) with an optional
 trailing shape. Whole particles travel between ranks only at a rebuild
-(migration), as float64 rows holding every field (:meth:`Particles.rows`),
-so a field added with :meth:`Particles.add_field` (the midpoint integrator's
+(migration), as float64 rows holding every field that is not recomputed
+after a rebuild (:meth:`Particles.rows`; ``DERIVED`` are not carried), so a
+field added with :meth:`Particles.add_field` (the midpoint integrator's
 saved state, say) migrates without further code.
 
 Fields:
@@ -21,6 +22,8 @@ Fields:
 import numpy as np
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
+# recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
+DERIVED = ("acc", "theta", "disp")
 
 
 class Particles:
@@ -47,6 +50,9 @@ class Particles:
     def fields(self):
         return tuple(self._spec)
 
+    def _carried(self):
+        return [(name, spec) for name, spec in self._spec.items() if name not in DERIVED]
+
     def _alloc(self, cap, keep):
         for name, (dtype, shape) in self._spec.items():
             new = np.zeros((cap,) + shape, dtype)
@@ -71,20 +77,20 @@ class Particles:
     # ---- whole particles as float64 rows (migration) ----------------------------
     @property
     def row_width(self):
-        return sum(int(np.prod(shape, dtype=np.int64)) for _, shape in self._spec.values())
+        return sum(int(np.prod(shape, dtype=np.int64)) for _, (_, shape) in self._carried())
 
     def rows(self, idx):
         """Particles ``idx`` as float64 rows holding every field (ids are exact below 2^53)."""
         k = len(idx)
         cols = [getattr(self, name)[idx].reshape(k, int(np.prod(shape, dtype=np.int64))).astype(float)
-                for name, (_, shape) in self._spec.items()]
+                for name, (_, shape) in self._carried()]
         return np.concatenate(cols, axis=1)
 
     def put_rows(self, rows, start):
         """Store ``rows`` (from :meth:`rows`) as particles ``start .. start+len(rows)-1``."""
         c = 0
         k = len(rows)
-        for name, (dtype, shape) in self._spec.items():
+        for name, (dtype, shape) in self._carried():
             w = int(np.prod(shape, dtype=np.int64))
             getattr(self, name)[start:start + k] = rows[:, c:c + w].reshape((k,) + shape).astype(dtype)
             c += w
@@ -95,9 +101,11 @@ class Particles:
         self.reorder_owned(keep)
 
     def reorder_owned(self, order):
-        """Owned particles become ``order`` (indices into 0..n_own-1, each at most once); halo copies are dropped."""
+        """Owned particles become ``order`` (indices into 0..n_own-1, each at most once); halo copies are dropped.
+
+        The DERIVED fields are left as they are (the next evaluation recomputes them)."""
         k = len(order)
-        for name in self._spec:
+        for name, _ in self._carried():
             arr = getattr(self, name)
             arr[:k] = arr[order]
         self.n_own = self.n = k

@@ -47,8 +47,20 @@ class Rates:
         self.n = 0
 
     # ---- the list ------------------------------------------------------------------
+    def sort_owned(self, coords, gid, n, box):
+        """The order of particles 0..n-1 by cell and gid (a counting sort on the local cell box)."""
+        lo, size = box[:2]
+        ncells = int(np.prod(size))
+        cell = np.zeros(n, np.int64)
+        order = np.zeros(n, np.int64)
+        start = np.zeros(ncells + 1, np.int64)
+        neighbours.local_cells(coords, n, lo, size, cell)
+        neighbours.sort_by_cell(cell, gid, n, ncells, order, start)
+        return order
+
     def build(self, ps, coords, box):
-        """Sort the n local particles into cells and list their unique pairs within 2h + skin.
+        """Sort the n local particles into cells and list their unique pairs within 2h + skin of their
+        reference positions ``ps.ref`` (the positions at this build).
 
         ``coords``: integer cell coordinates per particle; ``box``: (lo, size,
         centre_lo, centre_hi) of the local cell box (SlabRing.local_box).
@@ -73,8 +85,11 @@ class Rates:
         neighbours.sort_by_cell(self.cell, ps.gid, n, ncells, self.order, self.start)
         self.need[:n] = False
         self.need[:ps.n_own] = ps.kind[:ps.n_own] == FLUID
+        if len(self.pi) < 1:  # build_pairs needs room for one store beyond its pairs
+            self.pi = np.zeros(16 * n + 64, np.int32)
+            self.pj = np.zeros(16 * n + 64, np.int32)
         while True:
-            count = neighbours.build_pairs(ps.pos, self.need, self.order, self.start, self.cell, n, size,
+            count = neighbours.build_pairs(ps.ref, self.need, self.order, self.start, self.cell, n, size,
                                            self.grid.cutoff, self.pstart, self.pi, self.pj)
             if count >= 0:
                 break

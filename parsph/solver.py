@@ -22,23 +22,24 @@ its own neighbour across the periodic boundary).
 import math
 import time
 from collections import defaultdict
-from types import SimpleNamespace
 
 import numpy as np
 from mpi4py import MPI
 
 from . import integrate, limits
+from .collectives import Collectives
 from .decomposition import SlabRing
 from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
 from .kernels import get_kernel, lattice_sum
 from .neighbours import cell_coords, grid_for
+from .output import Frame, read_particles
 from .particles import FLUID, Particles
 from .profile import bin_centres, bin_sums, errors
 from .rates import Rates
 from . import equations
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
-GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho")
+GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
 
 
 class Interrupted(RuntimeError):
@@ -51,9 +52,10 @@ class Interrupted(RuntimeError):
 
 class Simulation:
     def __init__(self, cfg, comm, state=None):
-        """Set up the run on ``comm``; ``state`` (from output.read_state) continues a run."""
+        """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run."""
         self.cfg = cfg
         self.comm = comm
+        self._restore = False  # the first build takes the list's reference positions from a snapshot
         self.scene = cfg.scene
         self.kernel = get_kernel(cfg.kernel, cfg.dim)
         self.skin = cfg.get("numerics.skin") * cfg.h
@@ -63,14 +65,24 @@ class Simulation:
         self.ring = SlabRing(comm, cfg.Ly, self.grid)
         if state is None:
             self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
-        else:
+        elif "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
+            p = read_particles(state["path"], comm, self.ring.lo, self.ring.hi)
+            exact = "ref" in p  # the solver's state as it held it: continue from the same neighbour list
+            self.ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"],
+                                            p["position_raw"] if exact else p["position"], p["velocity"])
+            if exact:
+                self.ps.add_field("ref")
+                self.ps.ref[:self.ps.n_own] = p["ref"]
+                self._restore = True
+            del p
+        else:  # a state given as arrays (id, kind, mass, position, velocity): this slab's rows
             y = state["position"][:, 1]
             mine = (y >= self.ring.lo) & (y < self.ring.hi)
             self.ps = Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
                                             state["mass"][mine], state["position"][mine],
                                             state["velocity"][mine])
         ps = self.ps
-        ps.add_field("ref")
+        ps.add_field("ref")  # positions at the last build of the neighbour list
         self.position_fields = ("pos",)
         if cfg.integrator == "midpoint":
             ps.add_field("pos0")
@@ -98,14 +110,15 @@ class Simulation:
         self.timers = defaultdict(float)
         self.rates = Rates(self.kernel, cfg.h, cfg.dim, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L, cfg.beta_max,
                            self.g, switches, self.grid, self.skin)
-        self.n_total = comm.allreduce(ps.n_own)
+        self.collect = Collectives(comm)
+        self.n_total = self.collect.total(ps.n_own)
         self.nbins = cfg.Nx
         self._sums = np.zeros((3, self.nbins))
         self._flags = np.zeros(3)
         self._flags_all = np.zeros(3)
         self._coords = np.zeros((0, 3), np.int64)
         self._built = False      # no list yet: the first evaluation builds one
-        self._bad = 0            # non-finite particles left by the last integration (this rank)
+        self._bad = 0            # non-finite or jumping particles left by the last integration (this rank)
         self._stop_local = 0     # signal seen by this rank since the last sync
         self.force_rebuild = False
         self.stop = 0
@@ -115,19 +128,20 @@ class Simulation:
     # ---- the neighbour list ---------------------------------------------------------
     def _sync(self):
         """Refresh the ghosts, test the list, agree (one all-reduce) on blow-up, stop and rebuild."""
+        if not self._built:
+            self._rebuild(restore=self._restore)
+            self._restore = False
         t0 = time.perf_counter()
         ps = self.ps
-        spread = 0.0
-        if self._built:  # positions may have changed (a step, or a caller's perturbation)
-            n = ps.n_own
-            np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])
-            self.ring.forward(ps)
-            spread = self.rates.spread(ps)
+        n = ps.n_own
+        np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])  # positions may have changed (a step, a caller)
+        self.ring.forward(ps)
+        spread = self.rates.spread(ps)
         f = self._flags
         f[0] = self._bad
         f[1] = self._stop_local
-        f[2] = 1.0 if (not self._built or self.force_rebuild or not spread < self.skin) else 0.0
-        self.comm.Allreduce(f, self._flags_all, op=MPI.MAX)
+        f[2] = 1.0 if (self.force_rebuild or not spread < self.skin) else 0.0
+        self._flags_all = self.collect.max(f)
         self._bad = 0
         self._stop_local = 0
         self.syncs += 1
@@ -137,30 +151,38 @@ class Simulation:
             self.check()  # raises GuardError on every rank
         if stop:
             self.stop = int(stop)
-        if rebuild or stop:
+        if rebuild:
             self._rebuild()
         self.force_rebuild = False
 
-    def _rebuild(self):
-        """Wrap, migrate, choose the ghosts and images, build the list (collective)."""
+    def _rebuild(self, restore=False):
+        """Wrap, migrate, choose the ghosts and images, build the list (collective).
+
+        The list is built from the reference positions ``ref``: the current
+        ones, wrapped into the box, except on ``restore``, where ``ref`` came
+        from a snapshot with the positions as the writing run held them, so
+        that the same list is built again and the run continues bit for bit.
+        """
         t0 = time.perf_counter()
         ps, ring = self.ps, self.ring
         ps.n = ps.n_own
-        ring.wrap(ps, self.position_fields)
-        ring.migrate(ps)
+        if not restore:
+            ring.wrap(ps, self.position_fields)
+            ps.ref[:ps.n_own] = ps.pos[:ps.n_own]
+        ring.migrate(ps, "ref")
         n = ps.n_own
         origin, side, ncell, periodic = self._grid_params
         coords = np.zeros((ps.capacity, 3), np.int64)
-        cell_coords(ps.pos, 0, n, origin, side, ncell, periodic, coords)
+        cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
-        order = np.lexsort((ps.gid[:n], coords[:n, 0], coords[:n, 1], coords[:n, 2]))
+        box = ring.local_box(ps.dim)
+        order = self.rates.sort_owned(coords, ps.gid, n, box)
         ps.reorder_owned(order)
         coords[:n] = coords[order]
         coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
-        ps.ref[:n] = ps.pos[:n]
-        ps.disp[:ps.n] = 0.0
-        self.rates.build(ps, coords, ring.local_box(ps.dim))
+        ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
+        self.rates.build(ps, coords, box)
         self._coords = coords
         self._built = True
         self.rebuilds += 1
@@ -182,15 +204,15 @@ class Simulation:
         t0 = time.perf_counter()
         n = ps.n_own
         if cfg.integrator == "paper":
-            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump)
+            bad = integrate.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h)
         else:
-            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump)
+            bad = integrate.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
             T["integrate"] += time.perf_counter() - t0
             self._bad = bad
             self.compute_rates()
             t0 = time.perf_counter()
             n = ps.n_own
-            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump)
+            bad = integrate.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
         self.step += 1
         self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
         self._bad = bad
@@ -207,9 +229,7 @@ class Simulation:
             ps.theta[:n][fluid].max(initial=cfg.theta0),
             np.sqrt((ps.acc[:n] ** 2).sum(axis=1)).max(initial=0.0),
         ])
-        glob = np.empty(3)
-        self.comm.Allreduce(local, glob, op=MPI.MAX)
-        vmax, theta_max, amax = glob
+        vmax, theta_max, amax = self.collect.max(local)
         theta_max = min(theta_max, 0.999)
         return limits.stable_dt(cfg, theta_max, vmax, amax)[0]   # config.build's limits, at the current state
 
@@ -224,8 +244,7 @@ class Simulation:
         ps, cfg = self.ps, self.cfg
         bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self.period_x,
                  self._sums)
-        sums = np.empty_like(self._sums)
-        self.comm.Allreduce(self._sums, sums, op=MPI.SUM)
+        sums = self.collect.sum(self._sums)
         count = sums[2]
         with np.errstate(invalid="ignore", divide="ignore"):
             out = {"x": bin_centres(cfg.L, self.nbins), "vy": sums[0] / count, "theta": sums[1] / count,
@@ -242,7 +261,7 @@ class Simulation:
         """Collective run-time checks (:mod:`parsph.guards`); on failure every rank raises GuardError."""
         t0 = time.perf_counter()
         try:
-            run_checks(self.comm, self.ps, self.cfg, self.step, self.t)
+            run_checks(self.collect, self.ps, self.cfg, self.step, self.t)
         finally:
             self.timers["checks"] += time.perf_counter() - t0
 
@@ -258,8 +277,9 @@ class Simulation:
                 if a.periodic:
                     pos[:, axis] %= a.period
             fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": pos,
-                      "velocity": ps.vel[:n], "theta": ps.theta[:n]}
-        return SimpleNamespace(t=self.t, step=self.step, dt=self.dt, profile=self.profile(), fields=fields)
+                      "velocity": ps.vel[:n], "theta": ps.theta[:n],
+                      "position_raw": ps.pos[:n], "ref": ps.ref[:n]}  # the exact state, for a restart
+        return Frame(self.t, self.step, self.dt, self.profile(), fields)
 
     # ---- the loop ----------------------------------------------------------------
     def _output_due(self, t_out):
@@ -285,8 +305,6 @@ class Simulation:
         stop = 0
         snapshots = cfg.get("output.snapshots")
         while True:
-            if output is not None and snapshots and pending and self._output_due(pending[0]):
-                self.force_rebuild = True  # a restart from this snapshot starts from a fresh list
             self.compute_rates()
             stop = self.stop
             while pending and self._output_due(pending[0]) and output is not None:

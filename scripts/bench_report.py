@@ -1,4 +1,4 @@
-"""Summarise scripts/bench.py records (JSON lines) as the README's performance tables.
+"""Summarise scripts/bench.py records (JSON lines) as the performance tables of docs/performance.md.
 
     .venv/bin/python scripts/bench_report.py results/bench.json
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The benchmark suite of README "Performance": the paper size (N_x = 50),
+# The benchmark suite of docs/performance.md: the paper size (N_x = 50),
 # N_x = 160 (10x the paper case, for the halo and migration share),
 # N_x = 200 and N_x = 400 on 1 and 2 ranks, plus the machine's ceiling for two
 # busy processes (two independent one-rank runs at once against one alone),

@@ -1,4 +1,4 @@
-"""The README's table of validated cases, the short-box study and the cost of the pressure term.
+"""The table of validated cases in docs/validation.md, the short-box study and the cost of the pressure term.
 
     .venv/bin/python scripts/validate_scenes.py [--out results] [--ranks 2] [--quick]
                                                 [--scenes NAME ...] [--parts 1 2 3]
@@ -31,6 +31,7 @@ from parsph import config
 from parsph.analytic import settling_equilibrium
 from parsph.output import output_files, read_profile, read_snapshot
 from parsph.particles import FLUID
+from parsph.scenes import error_scale
 from parsph.solver import Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -97,6 +98,18 @@ def scene_row(name, a):
                f"RMS {math.sqrt(np.nanmean(err ** 2)):.2e} of theta_0 over {np.isfinite(err).sum()} of "
                f"{err.size} bins (floor {theta[0]:.4f} vs {ref[0]:.4f}); against the paper form's balance: "
                f"max {np.nanmax(errp):.2e}")
+    elif config.loads(at["run_file"]).scene.current_scale is not None:
+        # a decaying flow: errors relative to the amplitude left, and the decay rate of the
+        # simulated amplitude (its projection on the reference's shape) against the reference's
+        cfg = config.loads(at["run_file"])
+        rows = []
+        for t, f, fe in zip(p["time"], p["vy"], p["vy_exact"]):
+            a = error_scale(cfg, t)
+            ratio = float(np.dot(f, fe) / np.dot(fe, fe))  # A_sim / A_ref
+            rate = math.log(ratio * a / error_scale(cfg, 0.0)) / math.log(a / error_scale(cfg, 0.0)) - 1.0
+            rows.append(f"t = {t:g} s: {np.nanmax(np.abs(f - fe)) / a:.2e} of the amplitude left "
+                        f"({a / error_scale(cfg, 0.0):.1e} U), decay rate {rate:+.2%}")
+        msg = "; ".join(rows)
     else:
         k = int(np.nanargmax(p["err_max"]))
         msg = (f"t = {p['time'][-1]:g} s: max {p['err_max'][-1]:.2e}, RMS {p['err_rms'][-1]:.2e} "

@@ -200,7 +200,7 @@ def test_sigint_to_one_rank_stops_every_rank_alike(tmp_path, reference):
 
 # ---- SIGKILL ------------------------------------------------------------------------------------
 
-KILL_EVERY = 2  # steps between outputs: a write (~25 ms for 560 particles) outlasts the 2 steps between
+KILL_EVERY = 2  # steps between outputs: a write (~25 ms for 672 particles) outlasts the 2 steps between
 KILLED = (*C.SHORT, "output.t_end=0.5",
           C.times_list(np.round(np.arange(1, 2001) * KILL_EVERY * C.DT, 10)), "output.progress_interval=0")
 KILL_AFTER = 3  # complete outputs before the watch for a .part starts

@@ -8,9 +8,10 @@ Runs: 2 ranks (parallel HDF5), 3 ranks (parallel HDF5), 1 rank without mpirun,
 and 2 ranks with PARSPH_SERIAL_HDF5=1 (the gather-to-rank-0 fallback).
 Each run writes one file per output time, ``<stem>_NNNN.h5`` (written as
 ``.part`` and renamed when complete), and the XDMF sidecar ``<stem>.xdmf``.
+The particle data are written with collective I/O (test_mpi_collective_io.py
+checks the transfer mode itself) and ordered by y-bin within each rank's rows.
 """
 import sys
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import h5py
@@ -21,6 +22,7 @@ from parsph import output
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
+from xdmf_check import check_sidecar  # noqa: E402
 
 pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 
@@ -212,66 +214,34 @@ def test_particle_contents(runs, name):
             assert at[f"particles/{key}"]["units"] == unit, key
 
 
-def _xdmf_items(grid):
-    """(HDF DataItem, hyperslab spec or None) of every HDF DataItem below ``grid``."""
-    out = []
-    parent = {c: p for p in grid.iter() for c in p}
-    for item in grid.iter("DataItem"):
-        if item.get("Format") != "HDF":
-            continue
-        p = parent.get(item)
-        slab = None
-        if p is not None and p.tag == "DataItem" and p.get("ItemType") == "HyperSlab":
-            spec = [c for c in p if c.get("Format") == "XML"]
-            assert len(spec) == 1
-            slab = (p.get("Dimensions"), [int(v) for v in spec[0].text.split()], spec[0].get("Dimensions"))
-        out.append((item, slab))
-    return out
-
-
 @pytest.mark.parametrize("name", list(RUNS))
 def test_xdmf_sidecar(runs, name):
     """The sidecar names one grid per output file, in time order, and every HDF item it names
-    exists in that file with the shape and number type it states."""
+    exists in that file with the shape and number type it states (xdmf_check.check_sidecar)."""
     d = runs[name][0]
-    xdmf = d / f"{STEM}.xdmf"
-    assert xdmf.is_file()
     assert not (d / f"{STEM}.xdmf.part").exists()
-    root = ET.parse(xdmf).getroot()                                 # well-formed XML
-    assert root.tag == "Xdmf"
-    collection = [g for g in root.iter("Grid") if g.get("GridType") == "Collection"]
-    assert len(collection) == 1 and collection[0].get("CollectionType") == "Temporal"
-    grids = [g for g in root.iter("Grid") if g.get("GridType") == "Uniform"]
-    assert [g.get("Name") for g in grids] == FILES
-    for g, fname in zip(grids, FILES):
-        with h5py.File(d / fname, "r") as f:
-            assert float(g.find("Time").get("Value")) == f.attrs["time"]
-            assert g.find("Topology").get("TopologyType") == "Polyvertex"
-            assert g.find("Topology").get("NumberOfElements") == str(N)
-            assert g.find("Geometry").get("GeometryType") == "XY"
-            names = {a.get("Name") for a in g.findall("Attribute")}
-            assert names == {"id", "kind", "theta", "vx", "vy"}
-            items = _xdmf_items(g)
-            assert len(items) == 6                                  # geometry + 5 attributes
-            for item, slab in items:
-                ref, _, dpath = item.text.strip().partition(":")
-                assert ref == fname, f"grid {fname} names {ref}"     # relative to the sidecar
-                assert dpath.startswith("/particles/")
-                assert dpath in f, f"{dpath} named in the XDMF is not in {fname}"
-                ds = f[dpath]
-                assert tuple(int(v) for v in item.get("Dimensions").split()) == ds.shape, dpath
-                kind = {"f": "Float", "i": "Int", "u": "UInt"}[ds.dtype.kind]
-                if ds.dtype.itemsize == 1:
-                    kind = "Char" if ds.dtype.kind == "i" else "UChar"
-                assert item.get("NumberType") == kind, dpath
-                assert int(item.get("Precision")) == ds.dtype.itemsize, dpath
-                if slab is not None:
-                    dims, spec, spec_dims = slab
-                    assert spec_dims == "3 2"
-                    start, stride, count = spec[0:2], spec[2:4], spec[4:6]
-                    assert tuple(int(v) for v in dims.split()) == tuple(count) == (N, 1)
-                    assert stride == [1, 1] and start[0] == 0 and 0 <= start[1] < ds.shape[1]
-    assert len(_xdmf_items(root)) == 6 * len(FILES)
+    check_sidecar(d / f"{STEM}.xdmf", FILES, N, 2)
+
+
+@pytest.mark.parametrize("name", list(RUNS))
+def test_layout_describes_the_writer_ranks(runs, name):
+    """/layout: rank r's rows are offset[r] .. offset[r+1]-1, their y lie in y_range[r], their y at the
+    last build of the neighbour list (/restart/ref, when particles last migrated) in [r Ly / P,
+    (r+1) Ly / P) (the slab it owned), and bin_start splits them into y-bins."""
+    P = max(1, RUNS[name][0])
+    for k in range(len(FILES)):
+        with h5py.File(h5(runs, name, k), "r") as f:
+            y = f["particles/position"][:, 1]
+            y_ref = f["restart/ref"][:, 1]
+            offset, y_range, starts = (f[f"layout/{key}"][()] for key in ("offset", "y_range", "bin_start"))
+        assert offset[0] == 0 and offset[-1] == N and len(offset) == P + 1 and starts.shape[0] == P
+        for r in range(P):
+            rows = y[offset[r]:offset[r + 1]]
+            assert rows.size and y_range[r].tolist() == [rows.min(), rows.max()]
+            owned = y_ref[offset[r]:offset[r + 1]]
+            assert np.all((owned >= r * LY / P * (1 - 1e-12)) & (owned < (r + 1) * LY / P * (1 + 1e-12)))
+            assert starts[r, 0] == offset[r] and starts[r, -1] == offset[r + 1]
+            assert np.all(np.diff(starts[r]) >= 0)
 
 
 def test_serial_hdf5_fallback_warns_once(runs):

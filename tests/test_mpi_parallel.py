@@ -196,7 +196,7 @@ def test_bit_for_bit_midpoint_auto_dt_symmetric():
     assert cfg.dt_auto and cfg.integrator == "midpoint"
     v = compare_with_one_rank(cfg, comm)
     assert v["clock"], "step count, time or last dt differ from the 1-rank run"
-    assert v["steps"] >= 50  # dt about 4.5e-5 s
+    assert v["steps"] >= 20  # dt about 1e-4 s (the midpoint scheme's linear limit, parsph.limits)
     assert v["gid"] and v["kind"] and v["n_par"] == v["n_one"]
     assert v["moved"] > 0.05
     for k in ("pos", "vel", "rho", "theta", "acc"):

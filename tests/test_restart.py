@@ -7,12 +7,13 @@ The serial tests launch ``parsph`` (and ``mpirun -n 2 parsph``) themselves and
 are skipped inside an mpirun job; the one test marked ``mpi`` restarts in
 process on COMM_WORLD (pytest-mpi, any rank count).
 
-Case: the paper's run file on a short box (Ly = 0.002 m, 560 particles).
+Case: the paper's run file on a short box (Ly = 0.0024 m, 672 particles).
 Uninterrupted: t_end = 0.004 s, outputs at [0.002, 0.004]. First leg:
 t_end = 0.002 s, output at [0.002]; then ``--restart`` with the uninterrupted
 run's t_end and times. The restarted run must end bit for bit equal to the
 uninterrupted one (positions, velocities, theta, masses, kinds, sorted by id),
-on the same rank count and across 1 -> 2 and 2 -> 1 ranks, for the paper's
+on the same rank count and across 1 -> 2, 2 -> 1 and 2 -> 3 ranks (each rank
+reads only the rows of its own slab: output.read_particles), for the paper's
 integrator, the midpoint integrator and numerics.dt = "auto".
 """
 import hashlib
@@ -83,7 +84,7 @@ def runs(tmp_path_factory):
 
 @launches
 @pytest.mark.parametrize("variant, ranks_before, ranks_after", [
-    ("paper", 1, 1), ("paper", 1, 2), ("paper", 2, 2), ("paper", 2, 1),
+    ("paper", 1, 1), ("paper", 1, 2), ("paper", 2, 2), ("paper", 2, 1), ("paper", 2, 3),
     ("midpoint", 1, 2), ("auto", 2, 1),
 ])
 def test_restart_is_bit_for_bit(runs, tmp_path, variant, ranks_before, ranks_after):
@@ -184,6 +185,7 @@ PHYSICS_CHANGES = {
     "numerics.pressure_form": "consistent",
     "domain.L": "0.012",
     "domain.Ly": "0.004",
+    "numerics.skin": "0.3",
     "material.rho_s": "2500.0",
     "material.theta0": "0.3",
     "material.k": "2.0",
@@ -303,7 +305,8 @@ def test_restart_without_a_snapshot_is_bad_input(runs, tmp_path, ranks, kind):
 
 @pytest.mark.mpi
 def test_restart_in_process_on_comm_world(mpi_tmp_path):
-    """Simulation + Output on COMM_WORLD: continuing from read_state equals the uninterrupted run."""
+    """Simulation + Output on COMM_WORLD: continuing from read_state (attributes and path; the
+    ranks read their own particles) equals the uninterrupted run."""
     from parsph.output import Output, read_snapshot, read_state
     from parsph.solver import Simulation
     comm, cfg, (a, b) = C.comm_world_case(mpi_tmp_path, ("uninterrupted", "restarted"),
@@ -311,7 +314,7 @@ def test_restart_in_process_on_comm_world(mpi_tmp_path):
     sim = Simulation(cfg, comm)
     sim.run(output=Output(comm, str(a), C.STEM, cfg, sim.n_total))
     state = read_state(str(a / name(0)))
-    assert int(state["attrs"]["step"]) == 30
+    assert int(state["attrs"]["step"]) == 30 and set(state) == {"attrs", "path"}
     sim2 = Simulation(cfg, comm, state=state)
     assert sim2.n_total == sim.n_total
     sim2.run(output=Output(comm, str(b), C.STEM, cfg, sim2.n_total, first_index=1))

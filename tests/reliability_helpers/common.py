@@ -36,8 +36,8 @@ from launch import MPI_ENV as _LAUNCH_ENV, PAPER, PYTHON, REPO, under_mpirun  # 
 
 STEM = "couette_paper"
 DT = 1e-5  # the paper's time step
-SHORT = ("domain.Ly=0.002",)  # 10 rows: 560 particles, a few hundred steps per second on 1 core
-N_SHORT = 560
+SHORT = ("domain.Ly=0.0024",)  # 12 rows: 672 particles (3 slabs fit their ghost rows), a few hundred steps per second on 1 core
+N_SHORT = 672
 FIELDS = ("id", "kind", "mass", "position", "velocity", "theta")
 
 MPI_ENV = {**_LAUNCH_ENV, "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}

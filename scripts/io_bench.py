@@ -1,0 +1,296 @@
+"""Output and restart I/O: throughput against the raw disk, and peak memory of a restart.
+
+    mpirun -n P .venv/bin/python scripts/io_bench.py throughput --n 1000000 --dir DIR [--repeat 3] [--json F]
+    .venv/bin/python scripts/io_bench.py rss --n 4000000 --ranks 1 2 4 --dir DIR [--json F]
+    .venv/bin/python scripts/io_bench.py report docs/bench/io_*.json      (markdown tables)
+
+throughput (under mpirun, P ranks): each rank builds N/P particles of the
+paper case's layout in its slab (2-D: id, kind, mass, position, velocity,
+theta; synthetic values, no solver; shuffled in memory by default, the worst
+case for the writer's y-bin sort) and the real writer (output.Output) writes
+one snapshot, timed from the call to the renamed, fsynced file. Then the file's
+pages are dropped from the page cache (posix_fadvise DONTNEED after the
+fsync) and every rank reads its own slab with output.read_particles, as a
+restart does. In the same run rank 0 measures the raw disk on the same number
+of bytes: numpy ``tofile`` + fsync, and ``dd oflag=direct`` (bs 4 MiB); reads
+with ``fromfile`` after the same eviction, and ``dd iflag=direct``. Rates are
+bytes / s; the ratio divides by the numpy rate of the same bytes (the larger
+of the two raw rates where dd is faster). The median of ``--repeat`` rounds.
+
+rss: a fresh run of the paper case with L_y chosen for N particles, one step
+with one output (a restart point), then a restart from it for one more step
+and output, each on P ranks (oversubscribed past the cores); every rank
+records its peak resident set size (getrusage ru_maxrss) at exit. ``--repo``
+runs another checkout's parsph (e.g. the commit before the slab reads).
+"""
+import argparse
+import json
+import os
+import platform
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+PAPER = os.path.join(ROOT, "run", "couette_paper.toml")
+NX, LAYERS, DY = 50, 3, 2e-4  # the paper lattice: N = Ny (Nx + 2 layers), dy = L / Nx
+
+
+def machine():
+    model = "unknown cpu"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    disk = subprocess.run(["df", "-hT", ROOT], capture_output=True, text=True).stdout.splitlines()[-1:]
+    return {"host": platform.node(), "cores": os.cpu_count(), "cpu": model, "disk": " ".join(disk[0].split()[:3])
+            if disk else "?", "mem_gb": round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 1e9, 1)}
+
+
+def ly_for(n):
+    """L_y of the paper lattice with at least n particles (a whole number of rows)."""
+    rows = -(-n // (NX + 2 * LAYERS))
+    return rows * DY, rows * (NX + 2 * LAYERS)
+
+
+def evict(path):
+    """Drop the (clean, fsynced) pages of ``path`` from the page cache."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+        os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+    finally:
+        os.close(fd)
+
+
+def dd_rate(args, nbytes):
+    t0 = time.perf_counter()
+    r = subprocess.run(["dd", *args, "bs=4M", f"count={-(-nbytes // (4 << 20))}", "status=none"],
+                       capture_output=True, text=True)
+    if r.returncode:
+        return float("nan")
+    return (-(-nbytes // (4 << 20))) * (4 << 20) / (time.perf_counter() - t0)
+
+
+def raw_rates(d, nbytes):
+    """numpy write+fsync, dd oflag=direct; numpy read and dd iflag=direct of evicted files [B/s]."""
+    path = os.path.join(d, "raw.bin")
+    buf = np.random.default_rng(0).integers(0, 255, nbytes, dtype=np.uint8)
+    t0 = time.perf_counter()
+    with open(path, "wb") as fh:
+        buf.tofile(fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    w_np = nbytes / (time.perf_counter() - t0)
+    evict(path)
+    t0 = time.perf_counter()
+    back = np.fromfile(path, dtype=np.uint8)
+    r_np = nbytes / (time.perf_counter() - t0)
+    assert back.size == nbytes
+    del back
+    os.remove(path)
+    w_dd = dd_rate(["if=/dev/zero", f"of={path}", "oflag=direct"], nbytes)
+    evict(path)
+    r_dd = dd_rate([f"if={path}", "of=/dev/null", "iflag=direct"], nbytes)
+    os.remove(path)
+    return {"write_numpy": w_np, "write_dd_direct": w_dd, "read_numpy": r_np, "read_dd_direct": r_dd}
+
+
+def throughput(args):
+    from mpi4py import MPI
+    from parsph import config, output
+    comm = MPI.COMM_WORLD
+    P, rank = comm.size, comm.rank
+    Ly, N = ly_for(args.n)
+    cfg = config.load(PAPER, [f"domain.Ly={Ly!r}"])
+    # rank r: the lattice rows of its slab, as the solver would own them
+    rows = N // (NX + 2 * LAYERS)
+    r0, r1 = rank * rows // P, (rank + 1) * rows // P
+    n = (r1 - r0) * (NX + 2 * LAYERS)
+    rng = np.random.default_rng(rank)
+    gid = np.arange(r0 * (NX + 2 * LAYERS), r1 * (NX + 2 * LAYERS), dtype=np.int64)
+    col = gid % (NX + 2 * LAYERS)
+    pos = np.column_stack([(col - LAYERS + 0.5) * DY, (gid // (NX + 2 * LAYERS) + 0.5) * DY])
+    fields = {"id": gid, "kind": np.where(col < LAYERS, 1, np.where(col >= NX + LAYERS, 2, 0)),
+              "mass": np.full(n, cfg.mass), "position": pos, "velocity": rng.normal(size=(n, 2)),
+              "theta": rng.uniform(0.3, 0.4, n)}
+    if args.order == "shuffled":  # the worst case for the writer's y-bin sort
+        perm = rng.permutation(n)
+        fields = {k: v[perm] for k, v in fields.items()}
+        gid = np.sort(gid)
+    prof = {k: np.zeros(NX) for k in ("x", "vy", "theta", "count", "vy_exact", "theta_exact")}
+    prof["err"] = (0.0, 0.0)
+    d = comm.bcast(tempfile.mkdtemp(prefix="io_bench_", dir=args.dir) if rank == 0 else None)
+    lo, hi = r0 * DY, r1 * DY
+    rounds = []
+    for k in range(args.repeat):
+        out = output.Output(comm, d, f"bench{k}", cfg, N)
+        frame = output.Frame(0.0, 0, cfg.dt, prof, fields)
+        comm.Barrier()
+        t0 = time.perf_counter()
+        path = out(frame, snapshot=True)
+        comm.Barrier()
+        t_write = time.perf_counter() - t0
+        size = os.path.getsize(path)
+        evict(path)
+        comm.Barrier()
+        t0 = time.perf_counter()
+        got = output.read_particles(path, comm, lo, hi)
+        comm.Barrier()
+        t_read = time.perf_counter() - t0
+        assert np.array_equal(np.sort(got["id"]), gid)
+        read_bytes = comm.allreduce(sum(a.nbytes for a in got.values()))
+        del got
+        raw = raw_rates(d, size) if rank == 0 else None
+        rounds.append({"write_s": t_write, "file_bytes": size, "write": size / t_write,
+                       "read_s": t_read, "read_bytes": read_bytes, "read": read_bytes / t_read, "raw": raw})
+        if rank == 0:
+            os.remove(path)
+    if rank == 0:
+        shutil.rmtree(d)
+
+        def med(f):
+            return statistics.median(f(r) for r in rounds)
+        res = {"mode": "throughput", "ranks": P, "n": N, "repeat": args.repeat, "order": args.order,
+               "machine": machine(), "load_avg": os.getloadavg(),
+               "parallel_hdf5": output.parallel_hdf5_available(),
+               "file_bytes": rounds[0]["file_bytes"], "read_bytes": rounds[0]["read_bytes"],
+               "write_MBps": med(lambda r: r["write"]) / 1e6, "read_MBps": med(lambda r: r["read"]) / 1e6,
+               "raw_MBps": {k: med(lambda r, k=k: r["raw"][k]) / 1e6 for k in rounds[0]["raw"]},
+               "rounds": rounds}
+        raw_w = max(res["raw_MBps"]["write_numpy"], res["raw_MBps"]["write_dd_direct"])
+        raw_r = max(res["raw_MBps"]["read_numpy"], res["raw_MBps"]["read_dd_direct"])
+        res["write_ratio"] = res["write_MBps"] / raw_w
+        res["read_ratio"] = res["read_MBps"] / raw_r
+        print(json.dumps({k: v for k, v in res.items() if k != "rounds"}, indent=1))
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(res, f, indent=1)
+
+
+def rss_run(argv):
+    """Inside one rank: run the parsph CLI (of the checkout on PYTHONPATH), then record this
+    process's peak RSS."""
+    out = argv[0]
+    sys.path.insert(0, os.environ["PYTHONPATH"].split(os.pathsep)[0])
+    from mpi4py import MPI
+    from parsph import cli
+    rc = cli.main(argv[1:])
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    with open(os.path.join(out, f"rss_{MPI.COMM_WORLD.rank}.txt"), "w") as f:
+        f.write(f"{peak} {rc}\n")
+    return rc
+
+
+def rss(args):
+    Ly, N = ly_for(args.n)
+    env = dict(os.environ, PYTHONPATH=os.path.abspath(args.repo), NUMBA_NUM_THREADS="1",
+               OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    dt = 1e-5
+    sets = ["--set", f"domain.Ly={Ly!r}", "--set", "output.progress_interval=0"]
+    results = []
+    for P in args.ranks:
+        base = tempfile.mkdtemp(prefix=f"io_rss_{P}_", dir=args.dir)
+        legs = {"fresh": (["--set", f"output.t_end={dt}", "--set", f"output.times=[{dt}]"], None),
+                "restart": (["--set", f"output.t_end={2 * dt}", "--set", f"output.times=[{dt}, {2 * dt}]"],
+                            os.path.join(base, "out"))}
+        row = {"ranks": P, "n": N}
+        for leg, (extra, restart) in legs.items():
+            rec = os.path.join(base, leg)
+            os.makedirs(rec)
+            cmd = ["mpirun", "--oversubscribe", "-n", str(P), "-x", "PYTHONPATH", "-x", "NUMBA_NUM_THREADS",
+                   sys.executable, os.path.abspath(__file__), "_rss_rank", rec, "run", PAPER, "--quiet",
+                   "--out", os.path.join(base, "out"), *sets, *extra]
+            if restart:
+                cmd += ["--restart", restart]
+            t0 = time.perf_counter()
+            r = subprocess.run(cmd, env=env, capture_output=True, text=True)
+            wall = time.perf_counter() - t0
+            if r.returncode:
+                raise SystemExit(f"{leg} on {P} ranks failed:\n{r.stdout}\n{r.stderr}")
+            peaks = []
+            for k in range(P):
+                with open(os.path.join(rec, f"rss_{k}.txt")) as f:
+                    peaks.append(int(f.read().split()[0]))
+            row[leg] = {"peak_rss_MB": [p / 1e6 for p in peaks], "wall_s": wall}
+            print(f"P = {P} {leg}: peak RSS per rank {[round(p / 1e6) for p in peaks]} MB ({wall:.0f} s)", flush=True)
+        row["ratio_max"] = max(row["restart"]["peak_rss_MB"]) / max(row["fresh"]["peak_rss_MB"])
+        results.append(row)
+        shutil.rmtree(base)
+    commit = subprocess.run(["git", "-C", args.repo, "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    res = {"mode": "rss", "n": N, "repo": os.path.abspath(args.repo), "commit": commit, "machine": machine(),
+           "rows": results}
+    print(json.dumps(res, indent=1))
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(res, f, indent=1)
+
+
+def report(paths):
+    """Markdown tables of result files (throughput and rss JSON)."""
+    rows, rss_rows, machines = [], [], set()
+    for p in paths:
+        with open(p) as f:
+            r = json.load(f)
+        m = r["machine"]
+        machines.add(f"{m['host']}: {m['cores']} cores ({m['cpu']}), {m['mem_gb']} GB, {m['disk']}")
+        if r["mode"] == "throughput":
+            rows.append(r)
+        else:
+            rss_rows.extend(r["rows"])
+    out = [f"Machine: {'; '.join(sorted(machines))}.", ""]
+    if rows:
+        out += ["| N | P | file MB | write MB/s | read MB/s | raw write numpy / dd direct | raw read numpy / dd direct "
+                "| write / raw (numpy, dd) | read / raw (numpy, dd) | load avg |",
+                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+        for r in sorted(rows, key=lambda r: (r["n"], r["ranks"])):
+            raw = r["raw_MBps"]
+            load = f"{r['load_avg'][0]:.1f}" if "load_avg" in r else "?"
+            out.append(
+                f"| {r['n'] / 1e6:.0f} M | {r['ranks']} | {r['file_bytes'] / 1e6:.0f} | {r['write_MBps']:.0f} "
+                f"| {r['read_MBps']:.0f} | {raw['write_numpy']:.0f} / {raw['write_dd_direct']:.0f} "
+                f"| {raw['read_numpy']:.0f} / {raw['read_dd_direct']:.0f} "
+                f"| {r['write_MBps'] / raw['write_numpy']:.2f}, {r['write_MBps'] / raw['write_dd_direct']:.2f} "
+                f"| {r['read_MBps'] / raw['read_numpy']:.2f}, {r['read_MBps'] / raw['read_dd_direct']:.2f} "
+                f"| {load} |")
+    if rss_rows:
+        out += ["", "| N | P | fresh: peak RSS per rank [MB] | restart: peak RSS per rank [MB] "
+                "| restart / fresh (max rank) |", "| --- | --- | --- | --- | --- |"]
+        for r in rss_rows:
+            fresh, rest = (", ".join(f"{v:.0f}" for v in r[k]["peak_rss_MB"]) for k in ("fresh", "restart"))
+            out.append(f"| {r['n'] / 1e6:.0f} M | {r['ranks']} | {fresh} | {rest} | {r['ratio_max']:.3f} |")
+    print("\n".join(out))
+
+
+def main():
+    if len(sys.argv) > 1 and sys.argv[1] == "_rss_rank":
+        return rss_run(sys.argv[2:])
+    if len(sys.argv) > 1 and sys.argv[1] == "report":
+        return report(sys.argv[2:])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("mode", choices=("throughput", "rss"))
+    ap.add_argument("--n", type=int, default=1_000_000, help="particles (rounded up to whole lattice rows)")
+    ap.add_argument("--dir", default=None, help="directory on the disk to measure (default: the temp dir)")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2, 4])
+    ap.add_argument("--order", choices=("shuffled", "lattice"), default="shuffled",
+                    help="particle order in memory: shuffled (worst case for the y-bin sort) or lattice rows")
+    ap.add_argument("--repo", default=ROOT, help="rss: the parsph checkout the ranks import (default this one)")
+    ap.add_argument("--json", help="write the results here")
+    args = ap.parse_args()
+    return throughput(args) if args.mode == "throughput" else rss(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,281 @@
+"""The convergence estimator (parsph/convergence.py) on synthetic sequences whose order and
+errors are known by construction, independent of the solver; and one short real scene
+through `parsph converge` against Eq. (8)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from parsph import convergence as cv
+
+L = 0.01
+
+
+def centres(n, length=L):
+    return (np.arange(n) + 0.5) * length / n
+
+
+def exact(x):
+    return np.sin(3.0 * x / L) + 0.3 * x / L
+
+
+def shape(x):
+    """The error's spatial shape C(x): smooth, one sign change, largest at the right wall."""
+    return np.cos(2.0 * x / L) + 0.5 * (x / L) ** 3
+
+
+def levels(n0, ratio, count, errfn, period=None):
+    """Profiles of `count` levels on their own bins, brought to the coarsest bins; and the
+    true errors there (exact by construction)."""
+    xc = centres(n0)
+    on_coarse, true = [], []
+    for l in range(count):
+        n = n0 * ratio ** l
+        x = centres(n)
+        h = L / n
+        f = exact(x) + errfn(x, h)
+        g = f if l == 0 else cv.to_coarse(x, f, xc, period)
+        on_coarse.append(g)
+        true.append(float(np.max(np.abs(g - exact(xc)))))
+    return on_coarse, true
+
+
+@pytest.mark.parametrize("p", [1.0, 1.5, 2.0])
+@pytest.mark.parametrize("ratio", [2, 3])
+def test_pure_power_law_gives_its_order_and_errors(p, ratio):
+    on_coarse, true = levels(16, ratio, 3, lambda x, h: 0.5 * shape(x) * (h / L) ** p)
+    est = cv.estimate(on_coarse, ratio)
+    assert est.asymptotic, est.reasons
+    # the only departure from the model is the 4-point interpolation, O(h^4) of a smooth profile
+    assert est.order == pytest.approx(p, abs=0.02)
+    assert est.shapes[-1] < 0.01
+    for e, t in zip(est.err_max, true):
+        assert e == pytest.approx(t, rel=0.02)
+
+
+def test_two_term_error_estimates_within_a_factor_of_two():
+    """e = C1 h + C2 h^2 with the second term 30 % of the first at the coarsest level."""
+    on_coarse, true = levels(16, 2, 3, lambda x, h: shape(x) * (0.02 * h / L * 16 + 0.006 * (h / L * 16) ** 2))
+    est = cv.estimate(on_coarse, 2)
+    assert est.asymptotic, est.reasons
+    assert 1.0 < est.order < 1.5
+    for e, t in zip(est.err_max[1:], true[1:]):  # the finest two
+        assert 0.5 < e / t < 2.0
+
+
+def test_four_levels_use_the_finest_triple_and_check_the_orders_agree():
+    on_coarse, true = levels(8, 2, 4, lambda x, h: shape(x) * (h / L) ** 2)
+    est = cv.estimate(on_coarse, 2)
+    assert est.asymptotic and len(est.orders) == 2
+    assert est.orders == pytest.approx([2.0, 2.0], abs=0.02)
+    assert est.err_max[-1] == pytest.approx(true[-1], rel=0.02)
+
+
+def test_orders_that_change_between_triples_are_flagged():
+    """e = C h + D h^4, the h^4 term leading at the coarsest level only: the coarse triple
+    sees an order of 3.3, the fine one 1.9."""
+    on_coarse, _ = levels(8, 2, 4, lambda x, h: shape(x) * (0.01 * h / L * 8 + 0.05 * (h / L * 8) ** 4))
+    est = cv.estimate(on_coarse, 2, max_order=5.0)
+    assert est.orders[0] - est.orders[1] > 0.5
+    assert not est.asymptotic and est.err_max is None
+    assert any("two finest triples" in r for r in est.reasons)
+
+
+def test_a_floor_with_noise_is_flagged():
+    """Errors that stop falling: a random bin-to-bin error of fixed size at every level."""
+    rng = np.random.default_rng(1)
+    on_coarse, true = levels(12, 2, 3, lambda x, h: 1e-3 * rng.standard_normal(x.size))
+    est = cv.estimate(on_coarse, 2)
+    assert not est.asymptotic and est.err_max is None
+    assert est.reasons
+
+
+def test_differences_that_grow_are_flagged():
+    on_coarse, _ = levels(12, 2, 3, lambda x, h: shape(x) * (h / L) ** -1 * 1e-4)
+    est = cv.estimate(on_coarse, 2)
+    assert est.order == pytest.approx(-1.0, abs=0.01)
+    assert not est.asymptotic
+    assert any("do not shrink" in r for r in est.reasons)
+
+
+def test_differences_that_change_sign_are_flagged():
+    """e = (-1)^l C h: successive differences point opposite ways (r < 0)."""
+    flips = iter([1.0, -1.0, 1.0])
+    on_coarse, _ = levels(12, 2, 3, lambda x, h: next(flips) * shape(x) * h / L)
+    est = cv.estimate(on_coarse, 2)
+    assert math.isnan(est.order) and not est.asymptotic
+
+
+def test_shape_change_between_levels_is_flagged():
+    """An error that oscillates on the scale of h (C depends on h): on the coarse bins
+    d_l is not R^p d_{l+1} bin by bin, although its size falls as h."""
+    on_coarse, _ = levels(12, 2, 3, lambda x, h: (h / L) * np.sin(2 * np.pi * x / (5 * h)))
+    est = cv.estimate(on_coarse, 2)
+    assert not est.asymptotic
+    assert any("shape" in r for r in est.reasons)
+
+
+def test_an_order_above_max_order_is_flagged():
+    # ratio 3: the fine bins' centres include the coarse ones, so no interpolation error
+    on_coarse, _ = levels(12, 3, 3, lambda x, h: 0.1 * shape(x) * (12 * h / L) ** 4)
+    est = cv.estimate(on_coarse, 3)
+    assert est.order == pytest.approx(4.0, abs=1e-9)
+    assert not est.asymptotic and any("above" in r for r in est.reasons)
+
+
+def test_two_levels_give_a_difference_and_no_estimate():
+    on_coarse, _ = levels(12, 2, 2, lambda x, h: shape(x) * h / L)
+    est = cv.estimate(on_coarse, 2)
+    assert est.err_max is None and est.order is None
+    assert est.diff_max[0] == pytest.approx(np.max(np.abs(on_coarse[1] - on_coarse[0])))
+
+
+def test_scale_and_empty_bins():
+    on_coarse, true = levels(10, 2, 3, lambda x, h: 0.5 * shape(x) * (h / L) ** 2)
+    on_coarse = [np.where(np.arange(10) == 4, np.nan, f) for f in on_coarse]  # an empty bin
+    est = cv.estimate(on_coarse, 2, scale=-0.5)
+    assert est.bins == 9 and est.asymptotic
+    assert est.err_max[-1] <= true[-1] / 0.5 * 1.02
+
+
+def test_identical_levels_have_zero_error():
+    f = exact(centres(8))
+    est = cv.estimate([f, f, f], 2)
+    assert est.asymptotic and est.err_max == [0.0, 0.0, 0.0]
+
+
+def test_to_coarse_is_exact_for_cubics_and_wraps_periodic_profiles():
+    xf, xc = centres(24), centres(6)
+    cubic = lambda x: 1.0 - 2.0 * x / L + 3.0 * (x / L) ** 2 - 5.0 * (x / L) ** 3
+    np.testing.assert_allclose(cv.to_coarse(xf, cubic(xf), xc), cubic(xc), rtol=0, atol=1e-12)
+    wave = lambda x: np.sin(2 * np.pi * x / L)
+    got = cv.to_coarse(xf, wave(xf), xc, period=L)
+    # cubic interpolation error of a sine with 24 points a period: (2 pi dx / L)^4 / 128-ish
+    assert np.max(np.abs(got - wave(xc))) < 1e-3
+    # the end points use the wrapped stencil: as accurate as the middle
+    mid = np.abs(got - wave(xc))
+    assert mid[0] < 2 * mid[2] + 1e-12
+    f = wave(xf)
+    f[0] = np.nan
+    assert np.isnan(cv.to_coarse(xf, f, xc)[0]) and np.isfinite(cv.to_coarse(xf, f, xc)[-1])
+
+
+def test_predict_nx_meets_the_target_on_a_power_law():
+    """Errors A (N/12)^-p exactly: the predicted N is the smallest integer meeting the target."""
+    p, A, target = 1.5, 2e-2, 1e-3
+    nxs = [12, 24, 48]
+    est = cv.Estimate(diff_max=[], diff_rms=[], order=p, asymptotic=True,
+                      err_max=[A * (n / 12) ** -p for n in nxs])
+    need, why = cv.predict_nx(nxs, [(0.05, est)], target)
+    assert why is None
+    err = lambda n: A * (n / 12) ** -p
+    assert err(need) <= target * (1 + 1e-12) and err(need - 1) > target
+    # a target the coarsest already meets: not below the coarsest measured
+    assert cv.predict_nx(nxs, [(0.05, est)], 1.0)[0] == 12
+    bad = cv.Estimate(diff_max=[], diff_rms=[], reasons=["noise"])
+    need, why = cv.predict_nx(nxs, [(0.05, est), (0.1, bad)], target)
+    assert need is None and "noise" in why
+
+
+def test_cost_at_follows_the_measured_power_laws():
+    nxs, cost = [10, 20, 40], [1.0, 8.0, 128.0]  # exponents 3 then 4
+    assert cv.cost_at(20, nxs, cost)[0] == pytest.approx(8.0)
+    assert cv.cost_at(80, nxs, cost) == pytest.approx((2048.0, 4.0))
+    assert cv.cost_at(math.sqrt(200), nxs, cost)[0] == pytest.approx(math.sqrt(8.0))
+    assert cv.cost_at(5, nxs, cost)[0] == pytest.approx(1.0 / 8)
+
+
+def test_times_caution():
+    assert cv.times_caution([1.0, 1.3, None]) is None
+    assert "differ across output times" in cv.times_caution([0.9, 2.1])
+
+
+# ---- one short real scene through the command ---------------------------------------
+def _restrict_error(p, i, xc, exact_c):
+    """A level's max error on the coarse points, from its own profile and Eq. (8) there."""
+    return float(np.max(np.abs(cv.to_coarse(p["x"], p["vy"][i], xc) - exact_c)))
+
+
+def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
+    """Couette, Wendland C2 at h = 2.5 dx (the accurate preset's numerics), N_x = 12, 24, 48
+    to t = 0.02 s (about 2 CPU s): second order; the estimated errors of the finest two
+    levels within a factor 2 of the errors against Eq. (8), computed here from the profiles."""
+    from parsph.analytic import couette_velocity
+    from parsph.output import read_profile
+    out = tmp_path / "cv"
+    rc, so, se = cli("converge", "run/couette_fast.toml", "--family", "accurate", "--out", out,
+                     "--set", "output.t_end=0.02", "--set", "output.times=[0.01, 0.02]", "--target", "2e-3",
+                     timeout=900)
+    assert rc == 0, se
+    rep = json.loads((out / "converge.json").read_text())
+    assert (out / "converge.png").stat().st_size > 1000
+    fam = rep["families"][0]
+    assert fam["family"] == "accurate" and fam["Nx"] == [12, 24, 48]
+    profs = [read_profile(str(out / "accurate" / f"nx{n}")) for n in (12, 24, 48)]
+    nu = 1.0 * 0.35 / 2000.0
+    xc = profs[0]["x"]
+    for i, row in enumerate(fam["times"]):
+        exact_c = couette_velocity(xc, row["t"], nu, L, 1.0)
+        true = [_restrict_error(p, i, xc, exact_c) for p in profs]
+        np.testing.assert_allclose(row["true_max"], true, rtol=1e-9)
+        # each level's error on its own bins, from Eq. (8) alone (no interpolation)
+        own = [float(np.max(np.abs(p["vy"][i] - couette_velocity(p["x"], row["t"], nu, L, 1.0)))) for p in profs]
+        np.testing.assert_allclose(row["check_max"], own, rtol=1e-9)
+        est = row["estimate"]
+        assert est["asymptotic"], est["reasons"]
+        assert 1.7 < est["order"] < 2.6
+        for e, t, o in zip(est["err_max"][1:], true[1:], own[1:]):
+            assert 0.5 < e / t < 2.0, (row["t"], e, t)
+            assert 0.5 < e / o < 2.0, (row["t"], e, o)
+        # the cost to each output time grows with N_x
+        assert 0 < row["cpu_s"][0] < row["cpu_s"][1] < row["cpu_s"][2]
+        assert row["steps"][0] < row["steps"][1] < row["steps"][2]
+    assert fam["particles"] == [(12 + 10) * 12, (24 + 10) * 24, (48 + 10) * 48]  # 5 wall layers a side
+    choice = rep["choice"]
+    assert choice["family"] == "accurate" and 24 < choice["Nx"] <= 96
+    assert "numerics.Nx = " in so
+    # each level is an ordinary run file, and a second call reuses the levels
+    assert (out / "accurate" / "nx24" / "couette_fast.toml").exists()
+    rc, so, se = cli("converge", "run/couette_fast.toml", "--family", "accurate", "--out", out,
+                     "--set", "output.t_end=0.02", "--set", "output.times=[0.01, 0.02]", timeout=300)
+    assert rc == 0 and so.count("reusing") == 3, so + se
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--levels", "1"], "--levels 1"),
+    (["--ratio", "1"], "--ratio 1"),
+    (["--target", "-1"], "--target"),
+    (["--family", "nope"], "--family nope"),
+    (["--set", "numerics.Nx=1"], "numerics.Nx"),
+])
+def test_converge_bad_input_is_one_line(tmp_path, cli, args, words):
+    rc, so, se = cli("converge", "run/couette_fast.toml", "--out", tmp_path / "x", *args)
+    assert rc == 2
+    assert se.count("\n") == 1 and words in se and "Traceback" not in se
+
+
+def test_converge_on_two_ranks_matches_one(tmp_path):
+    """Every level runs on the communicator converge was started on: 2 ranks give the
+    1-rank profiles, so the same orders and estimates (to round-off of the reductions)."""
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
+    import launch
+    if launch.under_mpirun():
+        pytest.skip("launches mpirun itself")
+    args = ["converge", "run/couette_fast.toml", "--family", "accurate", "--set", "output.t_end=0.01",
+            "--set", "output.times=[0.01]"]
+    reps = []
+    for ranks in (1, 2):
+        out = tmp_path / f"np{ranks}"
+        cmd = launch.parsph_cmd(*args, "--out", out)
+        r = launch.run(launch.mpirun_cmd(ranks, *cmd), timeout=600, shared_cache=True)
+        assert r.returncode == 0, r
+        reps.append(json.loads((out / "converge.json").read_text())["families"][0])
+    one, two = reps
+    assert two["levels"][0]["ranks"] == 2 and one["levels"][0]["ranks"] == 1
+    a, b = one["times"][0], two["times"][0]
+    assert a["steps"] == b["steps"]
+    np.testing.assert_allclose(b["true_max"], a["true_max"], rtol=1e-9)
+    np.testing.assert_allclose(b["estimate"]["err_max"], a["estimate"]["err_max"], rtol=1e-9)
