@@ -1,8 +1,9 @@
 """The time per step against the rank count P: a model from measured per-rank costs (docs/scaling.md).
 
-    .venv/bin/python scripts/scaling_model.py --inputs2d docs/scaling/inputs_2d.json \
-        --inputs3d docs/scaling/inputs_3d.json --threads docs/scaling/threads1.json docs/scaling/threads2.json \
-        [--alpha 2e-6 --bandwidth 1.25e10 --alpha-allreduce 2.5e-6] [--check docs/scaling/check.json]
+    .venv/bin/python scripts/scaling_model.py --inputs2d docs/scaling/round_*_inputs_2d.json \
+        --inputs3d docs/scaling/inputs_3d.json --migration docs/scaling/migration.json \
+        --threads docs/scaling/threads.json [--alpha 2e-6 --bandwidth 1.25e10 --alpha-allreduce 2.5e-6] \
+        [--check docs/scaling/round_*_paper.json] [--counts docs/scaling/counts_*.json]
 
 The inputs are records of ``scripts/scaling.py`` at P = 1 (CPU-time phases,
 list pairs, local particles, list builds), two or more sizes per dimension.
@@ -20,12 +21,12 @@ Per rank at P (the busiest rank: the most owned particles and ghosts):
     Pi    = p own + X                     (list pairs: p per particle, X crossing one slab boundary)
     n_loc = own + G + I                   (owned, ghosts, periodic images)
     T_msg = 2 alpha + 8 (3 d + 1) G / B + ceil(log2 P) alpha_ar          (P >= 2; P = 1: in t_0)
-    T_msg,b = 2 alpha + 8 (7 + 2 d) G / B + 2 ceil(log2 P) alpha_ar       (the build's rounds)
+    T_msg,b = 2 alpha + 8 (7 + 3 d) G / B + 2 ceil(log2 P) alpha_ar       (the build's rounds)
     [...]: P >= 2 only; m_0, m_n fitted from records at P = 2 (migration's Python, outside MPI waits)
 
 p, X, G and I are counted on the initial lattice (``Case``); s (steps per
 list build) is a stated input per case. The build's own messages (a
-migration round with two all-reduces, a ghost round of 7 + 2d floats per
+migration round with two all-reduces, a ghost round of 7 + 3d floats per
 ghost) are added to the build when P >= 2. Threads (beyond the slab limit)
 share the pair passes only, which then cost ``thread_factor`` times more
 work; the rest of the step stays on one thread.
@@ -170,7 +171,7 @@ def step_time(case, P, k, s, alpha, bandwidth, alpha_ar, threads=1):
         stages = math.ceil(math.log2(P))
         msg = 2 * alpha + 8 * (3 * d + 1) * g / bandwidth + stages * alpha_ar
         build += k["m_0"] + k["m_n"] * own    # migration (Python: strays selected, rows removed and added)
-        build += 2 * alpha + 8 * (7 + 2 * d) * g / bandwidth + 2 * stages * alpha_ar  # its messages, ghosts
+        build += 2 * alpha + 8 * (7 + 3 * d) * g / bandwidth + 2 * stages * alpha_ar  # its messages, ghosts
     compute = k["t_0"] + pair_work + k["c_n"] * n_loc
     return {"P": P, "own": own, "ghosts": g, "images": images, "pairs": pairs, "n_loc": n_loc,
             "compute": compute, "build": build / s, "messages": msg, "total": compute + build / s + msg}
@@ -253,10 +254,12 @@ def main():
     ap.add_argument("--inputs2d", nargs="+", required=True,
                     help="scaling.py records at P = 1, 2-D, two or more sizes (JSON lines)")
     ap.add_argument("--inputs3d", nargs="+", required=True, help="the same in 3-D")
+    ap.add_argument("--thread-factor", type=float, help="instead of the measured median (--threads)")
     ap.add_argument("--migration", nargs="+", required=True,
                     help="scaling.py inputs records at P = 2 (the migration's cost per list build)")
-    ap.add_argument("--threads", nargs=2, metavar=("ONE", "TWO"),
-                    help="scaling.py records of one size at P = 1 with --threads 1 and 2 (their pair passes' CPU)")
+    ap.add_argument("--threads", nargs="+", metavar="ONE TWO",
+                    help="pairs of scaling.py records of one size at P = 1 with --threads 1 and 2: the median "
+                         "ratio of their pair passes' CPU per pair")
     ap.add_argument("--alpha", type=float, default=2e-6, help="point-to-point latency per round [s]")
     ap.add_argument("--alpha-allreduce", type=float, default=2.5e-6, help="latency per all-reduce stage [s]")
     ap.add_argument("--bandwidth", type=float, default=1.25e10, help="bandwidth per rank [bytes/s]")
@@ -279,9 +282,14 @@ def main():
     if a.threads:
         per_pair = []
         for path in a.threads:
-            x = load(path)[0]["per_rank"][0]
-            per_pair.append((x["phases_cpu_s"]["density"] + x["phases_cpu_s"]["forces"]) / x["pairs"])
-        k2["thread_factor"] = k3["thread_factor"] = per_pair[1] / per_pair[0]
+            for rec in load(path):
+                x = rec["per_rank"][0]
+                per_pair.append((x["phases_cpu_s"]["density"] + x["phases_cpu_s"]["forces"]) / x["pairs"])
+        ratios = [two / one for one, two in zip(per_pair[0::2], per_pair[1::2])]
+        print(f"thread_factor from {len(ratios)} pairs: " + ", ".join(f"{r:.2f}" for r in ratios))
+        k2["thread_factor"] = k3["thread_factor"] = float(np.median(ratios))
+    if a.thread_factor:
+        k2["thread_factor"] = k3["thread_factor"] = a.thread_factor
     print("| fitted record | N_x | list pairs | local | steps per build | CPU per step, measured [ms] | model [ms] |\n"
           "| --- | --- | --- | --- | --- | --- | --- |")
     for dim, k, paths in ((2, k2, a.inputs2d), (3, k3, a.inputs3d)):
