@@ -1,23 +1,46 @@
-"""Strong and weak scaling: time per step and parallel efficiency against the rank count.
+"""Strong and weak scaling: time per step, ghosts, pairs and messages against the rank count.
 
-    .venv/bin/python scripts/scaling.py strong --nx 200 --max-ranks 16 [--out results]
+    .venv/bin/python scripts/scaling.py strong --nx 50 --ranks 1 2 4 8 --set numerics.dt=1e-5 [--out results]
     .venv/bin/python scripts/scaling.py weak --nx 100 --ly-per-rank 0.0025 --max-ranks 16
+    .venv/bin/python scripts/scaling.py inputs --nx 10 20 100 200 [--ranks 2]
 
-strong: the same problem (N_x, L_y = L) on P = 1, 2, ... ranks; efficiency
-T_1 / (P T_P). weak: L_y = P * ly-per-rank, so every rank keeps the same
-particles; efficiency T_1 / T_P. Each P runs ``scripts/bench.py`` under
-``mpirun -n P`` (with --oversubscribe where ranks exceed cores, which measures
-correctness, not speed). Writes OUTDIR/scaling_<mode>.csv and .png, the
-machine described in both.
+strong: the same problem (the Couette case of ``scripts/bench.py``: N_x,
+L_y = L, h = 1.25 dx, dt = "auto" unless ``--set``) on P = 1, 2, ... ranks;
+efficiency T_1 / (P T_P). weak: L_y = P * ly-per-rank, the same particles
+per rank; efficiency T_1 / T_P. inputs: several sizes in one process, their
+timed blocks in turn, so that a drift of the machine's speed hits all alike
+(the per-unit costs of scripts/scaling_model.py). Each P runs this script's
+``worker`` under ``mpirun -n P`` (``--oversubscribe`` where ranks exceed
+cores: then the counts are right and the times are not).
+
+The worker takes ``--warmup`` steps, then ``--blocks`` blocks of
+``--block`` steps, and records per rank:
+- wall time per step (the mean, and the fastest block: on a shared machine
+  the least disturbed one) and CPU time (``time.process_time``; MPI waits
+  spin and count as CPU), the solver's phases in CPU time;
+- through a wrapper around the communicator: every send and all-reduce with
+  its bytes, by SlabRing method (``forward``, ``refresh``: every step;
+  ``migrate``, ``exchange_ghosts``: every list build; ``step``: the step's
+  all-reduce), and the CPU and wall time spent inside blocking calls
+  (Waitall, Probe, Recv, Allreduce), so that CPU outside waits is known;
+- owned, ghost and image particles, list pairs, list builds;
+- one ghost round and one 3-float all-reduce alone (the fastest of ``--reps``).
+Writes OUTDIR/scaling_<mode>.json (one record per P and size, every rank's
+figures), and for strong and weak a .csv (one row per P, the busiest rank)
+and a .png, the machine named.
 """
 import argparse
 import csv
 import json
 import os
+import pickle
 import platform
 import subprocess
 import sys
 import tempfile
+import time
+from collections import defaultdict
+from types import SimpleNamespace
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -34,78 +57,328 @@ def machine():
     return f"{platform.node()}: {os.cpu_count()} cores, {model}"
 
 
+# ---- the worker (one per rank, under mpirun) ----------------------------------------------------
+class CountingComm:
+    """A communicator that counts the sends and all-reduces made through it, with their bytes, by phase."""
+
+    def __init__(self, comm):
+        self._c = comm
+        self.rank, self.size = comm.rank, comm.size
+        self.phase = "step"
+        self.log = defaultdict(lambda: [0, 0])   # (phase, op) -> [calls, bytes]
+        self.blocked = [0.0, 0.0]                # CPU and wall seconds inside blocking calls (waits)
+        self.blocked_cpu = defaultdict(float)    # the CPU seconds of those by phase
+        self.ring_cpu = defaultdict(float)       # CPU seconds in each SlabRing method (waits included)
+
+    def __getattr__(self, name):                   # everything else passes through uncounted
+        return getattr(self._c, name)
+
+    def _add(self, op, nbytes):
+        e = self.log[(self.phase, op)]
+        e[0] += 1
+        e[1] += int(nbytes)
+
+    @staticmethod
+    def _bytes(buf):
+        import numpy as np
+        return np.asarray(buf[0] if isinstance(buf, (list, tuple)) else buf).nbytes
+
+    def _block(self, fn, *args, **kwargs):
+        c0, w0 = time.process_time(), time.perf_counter()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            self.blocked[0] += time.process_time() - c0
+            self.blocked[1] += time.perf_counter() - w0
+            self.blocked_cpu[self.phase] += time.process_time() - c0
+
+    def Probe(self, *args, **kwargs):
+        return self._block(self._c.Probe, *args, **kwargs)
+
+    def Recv(self, *args, **kwargs):
+        return self._block(self._c.Recv, *args, **kwargs)
+
+    def Isend(self, buf, dest, tag=0):
+        self._add("send", self._bytes(buf))
+        return self._c.Isend(buf, dest=dest, tag=tag)
+
+    def Allreduce(self, sendbuf, recvbuf, op=None):
+        from mpi4py import MPI
+        self._add("allreduce", self._bytes(sendbuf))
+        return self._block(self._c.Allreduce, sendbuf, recvbuf, op=op or MPI.SUM)
+
+    def allreduce(self, obj, op=None):
+        from mpi4py import MPI
+        self._add("allreduce", len(pickle.dumps(obj)))
+        return self._c.allreduce(obj, op=op or MPI.SUM)
+
+
+class MPIWaits:
+    """Stands in for the mpi4py.MPI module inside parsph.decomposition: Request.Waitall counts as blocked."""
+
+    def __init__(self, mpi):
+        self._mpi = mpi
+        self.comm = None   # the CountingComm of the run in progress
+        self.Request = SimpleNamespace(Waitall=lambda reqs: self.comm._block(mpi.Request.Waitall, reqs))
+
+    def __getattr__(self, name):
+        return getattr(self._mpi, name)
+
+
+def _in_phase(comm, name, fn):
+    """``fn`` with its messages counted under ``name`` and its CPU seconds added to comm.ring_cpu[name]."""
+    def wrapped(*args, **kwargs):
+        comm.phase = name
+        c0 = time.process_time()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            comm.ring_cpu[name] += time.process_time() - c0
+            comm.phase = "step"
+    return wrapped
+
+
+def worker(a):
+    """Runs every size of ``--nx`` in one process, their timed blocks in turn (the machine's speed drifts)."""
+    import numpy as np
+    import numba
+    from mpi4py import MPI
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    import bench
+    from parsph import decomposition, rates, solver
+
+    numba.set_num_threads(a.threads)
+    world = MPI.COMM_WORLD
+    # the solver's phase timers in CPU seconds (process_time) instead of wall seconds
+    solver.time = rates.time = SimpleNamespace(perf_counter=time.process_time)
+    waits = decomposition.MPI = MPIWaits(MPI)
+    runs = []
+    for nx in a.nx:
+        comm = CountingComm(world)
+        waits.comm = comm
+        sim = solver.Simulation(bench.make_config(nx, a.set), comm)
+        for name in ("forward", "refresh", "migrate", "exchange_ghosts"):
+            setattr(sim.ring, name, _in_phase(comm, name, getattr(sim.ring, name)))
+        for _ in range(1 + a.warmup):
+            sim.compute_rates()
+            sim.advance(sim.cfg.dt)
+        comm.log.clear()
+        comm.blocked = [0.0, 0.0]
+        comm.blocked_cpu.clear()
+        comm.ring_cpu.clear()
+        sim.timers.clear()
+        runs.append(SimpleNamespace(nx=nx, sim=sim, comm=comm, r0=sim.rebuilds, walls=[], cpus=[], rebuilds=[]))
+    for _ in range(a.blocks):
+        for run in runs:
+            sim, dt = run.sim, run.sim.cfg.dt
+            waits.comm = run.comm
+            world.Barrier()
+            b0, w0, c0 = sim.rebuilds, time.perf_counter(), time.process_time()
+            for _ in range(a.block):
+                sim.compute_rates()
+                sim.advance(dt)
+            run.cpus.append(time.process_time() - c0)
+            world.Barrier()
+            run.walls.append(time.perf_counter() - w0)
+            run.rebuilds.append(sim.rebuilds - b0)
+    steps = a.blocks * a.block
+    lines = []
+    for run in runs:
+        sim, comm, ring, ps = run.sim, run.comm, run.sim.ring, run.sim.ps
+        waits.comm = comm
+        mine = {
+            "rank": world.rank, "own": ps.n_own, "ghosts_below": ring.n_below, "ghosts_above": ring.n_above,
+            "images": ring.n_images, "local": ps.n, "pairs": sim.rates.npairs,
+            "cpu_s_per_step": sum(run.cpus) / steps, "wall_block_s": run.walls, "rebuilds_per_block": run.rebuilds,
+            "blocked_cpu_s_per_step": comm.blocked[0] / steps, "blocked_wall_s_per_step": comm.blocked[1] / steps,
+            "blocked_cpu_by_phase_s": {k: v / steps for k, v in comm.blocked_cpu.items()},
+            "ring_cpu_s": {k: v / steps for k, v in comm.ring_cpu.items()},
+            "phases_cpu_s": {k: v / steps for k, v in sim.timers.items()},
+            "messages": {f"{ph}.{op}": {"calls": c, "bytes": b} for (ph, op), (c, b) in sorted(comm.log.items())},
+        }
+        # one ghost round and one all-reduce alone: the fastest of reps (message cost without imbalance)
+        buf, out = np.zeros(3), np.zeros(3)
+        best = {"forward": np.inf, "refresh": np.inf, "allreduce": np.inf, "blocked": np.inf}
+        for _ in range(a.reps):
+            world.Barrier()
+            b0 = comm.blocked[1]
+            t0 = time.perf_counter()
+            ring.forward(ps)
+            t1 = time.perf_counter()
+            ring.refresh(ps, ps.rho)
+            t2 = time.perf_counter()
+            comm.Allreduce(buf, out, op=MPI.MAX)
+            t3 = time.perf_counter()
+            for k, v in (("forward", t1 - t0), ("refresh", t2 - t1), ("allreduce", t3 - t2),
+                         ("blocked", comm.blocked[1] - b0)):
+                best[k] = min(best[k], v)
+        mine["alone_s"] = {k: best[k] for k in ("forward", "refresh", "allreduce")}
+        mine["alone_blocked_s"] = best["blocked"]
+        ranks = world.gather(mine, root=0)
+        if world.rank == 0:
+            nreb = sim.rebuilds - run.r0
+            lines.append(json.dumps({
+                "mode": a.tag, "nx": run.nx, "set": a.set, "ranks": world.size, "threads": a.threads,
+                "particles": sim.n_total, "dt": sim.cfg.dt, "steps": steps, "warmup": a.warmup,
+                "step_s": sum(run.walls) / steps, "step_best_block_s": min(run.walls) / a.block,
+                "cpu_s_per_step_max": max(r["cpu_s_per_step"] for r in ranks),
+                "rebuilds": nreb, "steps_per_rebuild": steps / max(nreb, 1),
+                "cutoff": sim.grid.cutoff, "Ly": sim.cfg.Ly, "per_rank": ranks, "machine": machine()}))
+    if world.rank == 0:
+        with open(a.json, "w") as f:
+            f.write("\n".join(lines) + "\n")
+    return 0
+
+
+# ---- the driver -----------------------------------------------------------------------------------
+def summary(r):
+    """One CSV row: times per step, and per-rank means (max where it matters) of counts and messages."""
+    pr = r["per_rank"]
+    P = r["ranks"]
+    steps, nreb = r["steps"], max(r["rebuilds"], 1)
+
+    row = {"ranks": P, "particles": r["particles"], "step_s": r["step_s"], "step_best_block_s": r["step_best_block_s"],
+           "cpu_s_per_step_max": r["cpu_s_per_step_max"], "steps_per_rebuild": r["steps_per_rebuild"],
+           "own_max": max(x["own"] for x in pr), "ghosts_max": max(x["ghosts_below"] + x["ghosts_above"] for x in pr),
+           "ghosts_mean": sum(x["ghosts_below"] + x["ghosts_above"] for x in pr) / P,
+           "images_max": max(x["images"] for x in pr), "pairs_max": max(x["pairs"] for x in pr),
+           "pairs_sum": sum(x["pairs"] for x in pr)}
+    for ph, div, lab in (("forward", steps, "step"), ("refresh", steps, "step"), ("step", steps, "step"),
+                         ("migrate", nreb, "rebuild"), ("exchange_ghosts", nreb, "rebuild")):
+        for op in ("send", "allreduce"):
+            calls = max(x["messages"].get(f"{ph}.{op}", {}).get("calls", 0) for x in pr) / div
+            nbytes = max(x["messages"].get(f"{ph}.{op}", {}).get("bytes", 0) for x in pr) / div
+            if calls:
+                row[f"{ph}_{op}s_per_{lab}"] = calls
+                row[f"{ph}_{op}_bytes_per_{lab}"] = nbytes
+    for k in ("forward", "refresh", "allreduce"):
+        row[f"alone_{k}_s"] = max(x["alone_s"][k] for x in pr)
+    # CPU outside blocking MPI calls (waits spin and count as CPU), and that plus one lone step's blocking:
+    # the time per step on cores of one's own, without the waits that other processes' load causes here
+    row["cpu_busy_s_per_step_max"] = max(x["cpu_s_per_step"] - x["blocked_cpu_s_per_step"] for x in pr)
+    row["blocked_wall_s_per_step_max"] = max(x["blocked_wall_s_per_step"] for x in pr)
+    row["alone_blocked_s"] = max(x["alone_blocked_s"] for x in pr)
+    row["own_cores_estimate_s"] = row["cpu_busy_s_per_step_max"] + row["alone_blocked_s"]
+    return row
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("mode", choices=("strong", "weak"))
-    ap.add_argument("--nx", type=int, default=200)
+    ap.add_argument("mode", choices=("strong", "weak", "inputs", "worker"))
+    ap.add_argument("--nx", type=int, nargs="+", default=[200],
+                    help="lattice columns (inputs: several sizes, run in one process, blocks in turn)")
     ap.add_argument("--max-ranks", type=int, default=4)
     ap.add_argument("--ranks", type=int, nargs="*", help="explicit rank counts (default 1, 2, 4, ... max)")
     ap.add_argument("--ly-per-rank", type=float, default=0.0025, help="weak scaling: L_y per rank [m]")
-    ap.add_argument("--budget", type=float, default=4.0, help="timed seconds per run")
+    ap.add_argument("--set", action="append", default=[], help="run-file overrides (bench.py's case)")
+    ap.add_argument("--warmup", type=int, default=200, help="steps before timing (past the impulsive start)")
+    ap.add_argument("--blocks", type=int, default=10)
+    ap.add_argument("--block", type=int, default=50, help="steps per timed block")
+    ap.add_argument("--reps", type=int, default=200, help="repetitions of the lone ghost round")
+    ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", default="results")
+    ap.add_argument("--json", help=argparse.SUPPRESS)
+    ap.add_argument("--tag", default="", help=argparse.SUPPRESS)
     ap.add_argument("--mpirun", default="mpirun", help="launcher (e.g. 'srun' on a cluster)")
     a = ap.parse_args()
-    ranks = a.ranks or sorted({1, *[2 ** k for k in range(1, 10) if 2 ** k <= a.max_ranks], a.max_ranks})
+    if a.mode == "worker":
+        return worker(a)
+    if a.mode != "inputs" and len(a.nx) > 1:
+        ap.error("strong and weak take one --nx")
+    ranks = a.ranks or sorted({1, *[2 ** k for k in range(1, 13) if 2 ** k <= a.max_ranks], a.max_ranks})
+    if a.mode == "inputs":
+        ranks = a.ranks or [1]
     os.makedirs(a.out, exist_ok=True)
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
-               NUMBA_NUM_THREADS="1", OMP_WAIT_POLICY="passive")
-    rows = []
+               NUMBA_NUM_THREADS=str(a.threads), OMP_WAIT_POLICY="passive")
+    env["PYTHONPATH"] = ROOT + os.pathsep + env.get("PYTHONPATH", "")
+    records = []
+    sys.path.insert(0, os.path.join(ROOT, "scripts"))
+    import bench
+    from parsph import decomposition, kernels, neighbours
+    for p in ranks:  # the slab limit, before any launch
+        sets = a.set + ([f"domain.Ly={a.ly_per_rank * p}"] if a.mode == "weak" else [])
+        for nx in a.nx:
+            cfg = bench.make_config(nx, sets)
+            grid = neighbours.grid_for(cfg, kernels.get_kernel(cfg.kernel, cfg.dim))
+            cut = grid.cutoff
+            if not decomposition.fits(cfg.Ly, p, grid.axes[1].side, grid.axes[1].n, grid.m):
+                print(f"scaling.py: {p} ranks do not fit N_x = {nx}, L_y = {cfg.Ly:g} m (slabs of at least "
+                      f"about 1.5 x the cutoff {cut:g} m): at most "
+                      f"{decomposition.max_ranks(cfg.Ly, cut, neighbours.CELLS_PER_CUTOFF)}", file=sys.stderr)
+                return 2
     for p in ranks:
         with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as tmp:
             jpath = tmp.name
         cmd = [a.mpirun, "-n", str(p)]
-        if a.mpirun == "mpirun" and p > (os.cpu_count() or 1):
-            cmd.append("--oversubscribe")
-        cmd += [sys.executable, os.path.join(ROOT, "scripts", "bench.py"), "--nx", str(a.nx),
-                "--budget", str(a.budget), "--json", jpath, "--tag", f"{a.mode} P={p}"]
-        if a.mode == "weak":
-            cmd += ["--set", f"domain.Ly={a.ly_per_rank * p}"]
+        if a.mpirun == "mpirun":
+            cmd += ["-x", "PYTHONPATH"] + (["--oversubscribe"] if p > (os.cpu_count() or 1) else [])
+        sets = a.set + ([f"domain.Ly={a.ly_per_rank * p}"] if a.mode == "weak" else [])
+        cmd += [sys.executable, os.path.abspath(__file__), "worker", "--nx", *map(str, a.nx), "--json", jpath,
+                "--tag", a.mode, "--warmup", str(a.warmup), "--blocks", str(a.blocks), "--block", str(a.block),
+                "--reps", str(a.reps), "--threads", str(a.threads)] + [f"--set={s}" for s in sets]
         print(" ".join(cmd), flush=True)
-        subprocess.run(cmd, check=True, env=env)
-        r = json.loads(open(jpath).read().splitlines()[-1])
+        rc = subprocess.run(cmd, env=env).returncode
+        if rc:
+            sys.exit(f"scaling.py: mpirun -n {p} failed (exit {rc}); its message is above")
+        records += [json.loads(line) for line in open(jpath) if line.strip()]
         os.unlink(jpath)
-        rows.append(r)
-    t1 = rows[0]["step_s"]
-    out = []
-    for r in rows:
-        p = r["ranks"]
-        eff = t1 / (p * r["step_s"]) if a.mode == "strong" else t1 / r["step_s"]
-        out.append({"ranks": p, "particles": r["particles"], "step_s": r["step_s"],
-                    "particle_steps_per_s": r["particle_steps_per_s"], "efficiency": eff,
-                    "halo_s": r["phases_s"]["halo"], "migrate_s": r["phases_s"]["migrate"]})
     base = os.path.join(a.out, f"scaling_{a.mode}")
+    with open(base + ".json", "w") as f:
+        for r in records:
+            f.write(json.dumps(r) + "\n")
+    if a.mode == "inputs":
+        for r in records:
+            x = r["per_rank"][0]
+            print(f"N_x={r['nx']:4d} P={r['ranks']} CPU {x['cpu_s_per_step'] * 1e3:8.3f} ms/step  "
+                  f"pairs {x['pairs']:9d}  local {x['local']:8d}  phases (CPU ms) " +
+                  " ".join(f"{k} {v * 1e3:.3f}" for k, v in x["phases_cpu_s"].items()) +
+                  f"  {r['steps_per_rebuild']:.1f} steps/build")
+        print(f"wrote {base}.json")
+        return 0
+    rows = [summary(r) for r in records]
+    t1 = rows[0]["step_best_block_s"]
+    for o in rows:
+        p = o["ranks"]
+        o["efficiency"] = t1 / (p * o["step_best_block_s"]) if a.mode == "strong" else t1 / o["step_best_block_s"]
     desc = machine()
     with open(base + ".csv", "w", newline="") as f:
-        f.write(f"# {a.mode} scaling, N_x = {a.nx}, {desc}\n")
-        w = csv.DictWriter(f, fieldnames=list(out[0]))
+        f.write(f"# {a.mode} scaling, N_x = {a.nx[0]} {' '.join(a.set)}, {desc}\n")
+        keys = list(dict.fromkeys(k for o in rows for k in o))
+        w = csv.DictWriter(f, fieldnames=keys)
         w.writeheader()
-        w.writerows(out)
+        w.writerows(rows)
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9, 3.8))
-        P = [o["ranks"] for o in out]
-        ax1.loglog(P, [o["step_s"] * 1e3 for o in out], "o-")
+        P = [o["ranks"] for o in rows]
+        ax1.loglog(P, [o["step_best_block_s"] * 1e3 for o in rows], "o-", label="fastest block")
+        ax1.loglog(P, [o["cpu_s_per_step_max"] * 1e3 for o in rows], "s:", label="CPU, busiest rank")
         if a.mode == "strong":
             ax1.loglog(P, [t1 * 1e3 / p for p in P], "k--", lw=0.8, label="ideal")
-            ax1.legend()
+        ax1.legend()
         ax1.set_xlabel("ranks P")
         ax1.set_ylabel("time per step [ms]")
-        ax2.plot(P, [o["efficiency"] for o in out], "o-")
+        ax2.plot(P, [o["efficiency"] for o in rows], "o-")
         ax2.axhline(1.0, color="k", lw=0.8, ls="--")
         ax2.set_ylim(0, 1.1)
         ax2.set_xlabel("ranks P")
         ax2.set_ylabel("parallel efficiency")
-        fig.suptitle(f"{a.mode} scaling, N_x = {a.nx}\n{desc}", fontsize=9)
+        fig.suptitle(f"{a.mode} scaling, N_x = {a.nx[0]}\n{desc}", fontsize=9)
         fig.tight_layout()
         fig.savefig(base + ".png", dpi=110)
     except ImportError:
         pass
-    for o in out:
-        print(f"P={o['ranks']:3d}  {o['step_s'] * 1e3:9.3f} ms/step  efficiency {o['efficiency']:.2f}")
-    print(f"wrote {base}.csv and {base}.png ({desc})")
+    for o in rows:
+        print(f"P={o['ranks']:4d}  {o['step_best_block_s'] * 1e3:9.3f} ms/step (fastest block)  "
+              f"CPU {o['cpu_s_per_step_max'] * 1e3:8.3f} ms  ghosts {o['ghosts_max']:7d}  "
+              f"pairs {o['pairs_max']:9d}  {o['steps_per_rebuild']:.1f} steps/rebuild  "
+              f"efficiency {o['efficiency']:.2f}")
+    print(f"wrote {base}.csv, .json and .png ({desc})")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
