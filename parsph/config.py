@@ -334,8 +334,8 @@ def build(raw, text):
                           f"2h = {support:g} m is wider than the channel (L = {L:g} m) and the box "
                           f"(L_y = {Ly:g} m{f', L_z = {Lz:g} m' if dim == 3 else ''})")
     ball = math.pi * (support / dx) ** 2 if dim == 2 else 4.0 / 3.0 * math.pi * (support / dx) ** 3
-    if ball > MAX_NEIGHBOURS:
-        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is too large: the kernel support {kern.support:g}h holds "
+    if ball > MAX_NEIGHBOURS:  # with h given, N_x made dx too small for it; else h_over_dx is too large
+        raise ConfigError("numerics.Nx" if num["h"] is not None else hkey, f"h / dx = {h / dx:.3g} is too large: the kernel support {kern.support:g}h holds "
                           f"about {ball:.3g} lattice neighbours per particle, more than {MAX_NEIGHBOURS} "
                           f"(the usual h / dx: 1.2 to 2.5, some 20 to 80 neighbours)")
     need_layers = math.ceil(support / dx - 1e-9)

@@ -43,7 +43,7 @@ class _TimedOutput:
         self.cpu0 = time.process_time()
 
     def __call__(self, sim, **kw):
-        self.records.append((sim.t, sim.step, time.process_time() - self.cpu0, sim.n_total))
+        self.records.append((sim.t, sim.step, time.process_time() - self.cpu0, self.out.N))
         return self.out(sim, **kw)
 
 

@@ -1,7 +1,7 @@
 """The Couette error falls with resolution at the order the scheme's analysis predicts.
 
 A coarse, quick check, not the sweep (scripts/sweep.py): N_x = 20 and 40 at fixed
-h/dx, dt = "auto", Eqs. (6)-(7), to t = 0.05 s on one rank. The two-point order
+h/dx, dt = "auto" at a quarter of the limit, Eqs. (6)-(7), to t = 0.05 s on one rank. The two-point order
 log2(err(20) / err(40)) of the max error against Eq. (8) must lie within a margin of
 the order the numerics should have:
 
@@ -52,7 +52,9 @@ def max_error(Nx, kernel, h_over_dx, beta_max):
     """Max |v_y - Eq. (8)| / V_w at t = T of the paper case with the given numerics."""
     raw = paper_raw()
     del raw["numerics"]["h"]  # exactly one of h and h_over_dx
-    raw["numerics"].update({"Nx": Nx, "h_over_dx": h_over_dx, "kernel": kernel, "dt": "auto"})
+    # a quarter of the stability limit: the first-order time error of Eqs. (6)-(7) stays below the
+    # spatial error being measured (at the full limit it raised the second-order case's apparent order to 3)
+    raw["numerics"].update({"Nx": Nx, "h_over_dx": h_over_dx, "kernel": kernel, "dt": "auto", "dt_safety": 0.25})
     raw["walls"]["beta_max"] = beta_max
     raw["output"].update({"t_end": T, "times": [T], "progress_interval": 0.0, "snapshots": False})
     cfg = config.build(raw, config.dumps(raw))

@@ -413,7 +413,7 @@ def test_nan_and_inf_in_the_toml_text_name_the_key():
 launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
 RLIMIT_AS = 8 * 2 ** 30  # a run that allocates before refusing fails (exit 1) instead of swapping the machine
 HANG_GUARD = 300  # s: a launched command still running after this is killed and fails its test
-SMALL = ("output.t_end=0.0001", "output.times=[0.0001]", "domain.Ly=0.002")
+SMALL = ("output.t_end=0.0001", "output.times=[0.0001]", *C.SHORT)
 
 
 def _limit():
@@ -463,7 +463,7 @@ BAD_FILES = {
     "unknown_key": (_with(BASE_TEXT, "numerics", "nx = 50"), [], "numerics.nx", "unknown"),
     "missing_key": (_without(BASE_TEXT, "material", "rho_s"), [], "material.rho_s", "missing"),
     "inf_t_end": (_replace(BASE_TEXT, "output", "t_end", "inf"), [], "output.t_end", "finite"),
-    "huge_Nx": (_replace(BASE_TEXT, "numerics", "Nx", "10000000"), [], "numerics.Nx", "GB"),
+    "huge_Nx": (_replace(BASE_TEXT, "numerics", "Nx", "10000000"), [], "numerics.Nx", "neighbours"),
     "overflow_G_a": (_replace(BASE_TEXT, "material", "G_a", "1e308"), [], "material.G_", ""),
     "beyond_64_bit_Nx": (_replace(BASE_TEXT, "numerics", "Nx", "1" + "0" * 400), [], "numerics.Nx", ""),
     "not_toml": ("[numerics\nNx = 50\n", [], "not valid TOML", ""),
@@ -667,10 +667,11 @@ def bad_runs(draw, case):
         k = draw(key_names.filter(lambda x: x not in SCHEMA[s]))
         raw.setdefault(s, {})[k] = draw(st.one_of(numbers, st.text(max_size=5), st.booleans()))
         return raw, out_kind, name_of(s, k), "unknown"
-    if case == "huge Nx":  # refused with the estimate before anything is allocated
-        if draw(st.booleans()):  # the paper's h: h / dx = Nx / 40 (at most 1e6)
+    if case == "huge Nx":  # refused before anything is allocated
+        if draw(st.booleans()):  # the paper's h: h / dx = Nx / 40 (at most 1e6): too many neighbours
             raw["numerics"]["Nx"] = draw(st.integers(max(NX_TOO_MANY, 10 ** 6), 4 * 10 ** 7))
-        else:  # h / dx given: dt auto, a short t_end (t_end / dt stays under 1e12)
+            return raw, out_kind, "numerics.Nx", "neighbours"
+        else:  # h / dx given: dt auto, a short t_end (t_end / dt stays under 1e12): the memory estimate
             num = raw["numerics"]
             del num["h"]
             num.update(h_over_dx=draw(st.floats(1.0, 2.0)), dt="auto",

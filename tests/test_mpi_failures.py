@@ -119,7 +119,7 @@ def test_bad_run_file_exit_2_one_message(tmp_path, case):
         run_file, expect = tmp_path / "bad.toml", "not valid TOML"
         run_file.write_text("[domain\nL = \n")
     elif case == "unstable-dt":
-        extra, expect = ["--set", "numerics.dt=1e-4"], "numerics.dt"
+        extra, expect = ["--set", "numerics.dt=1e-3"], "numerics.dt"
     r = launch.run(launch.mpirun_cmd(2, *launch.parsph_cmd("run", run_file, *extra, "--out", tmp_path / "out")),
                    timeout=HANG_GUARD)
     assert r.returncode == 2, r

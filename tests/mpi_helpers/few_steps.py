@@ -7,9 +7,13 @@ Used to count what each process adds to the numba cache.
 import sys
 from pathlib import Path
 
+import math
+
 from mpi4py import MPI
 
 from parsph import config
+from parsph.decomposition import min_length
+from parsph.neighbours import CELLS_PER_CUTOFF
 from parsph.solver import Simulation
 
 PAPER = Path(__file__).resolve().parents[2] / "run" / "couette_paper.toml"
@@ -18,7 +22,8 @@ PAPER = Path(__file__).resolve().parents[2] / "run" / "couette_paper.toml"
 def main(argv):
     steps = int(argv[0]) if argv else 3
     comm = MPI.COMM_WORLD
-    cfg = config.load(PAPER, [f"domain.Ly={max(8, 3 * comm.size) * 2e-4!r}", "output.times=[]"])
+    rows = max(8, math.ceil(min_length(comm.size, 2.4 * 2.5e-4, CELLS_PER_CUTOFF) / 2e-4 - 1e-9))
+    cfg = config.load(PAPER, [f"domain.Ly={rows * 2e-4!r}", "output.times=[]"])
     sim = Simulation(cfg, comm)
     for _ in range(steps):
         sim.compute_rates()
