@@ -21,15 +21,17 @@ def main(path):
         if old is None or r["particle_steps_per_s"] > old["particle_steps_per_s"]:
             by[r["tag"]][r["nx"]] = r
     rounds = sorted({t.split()[-1] for t in by if t.startswith("alone")})
-    print("| N_x | particles | ranks x threads | ms/step | particle-steps/s | outside numba | density ns/pair (ref.) "
-          "| forces ns/pair (ref.) | peak RSS B/particle (added by the run) |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| N_x | particles | ranks x threads | ms/step (CPU ms per rank) | particle-steps/s | steps per list build "
+          "| outside numba | density ns/pair (ref.) | forces ns/pair (ref.) | peak RSS B/particle (added by the run) |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for tag in ("1 rank", "1 rank, 2 threads", "2 ranks"):
         for nx, r in sorted(by.get(tag, {}).items()):
             added = r.get("rss_added_bytes_per_particle")
             added = f" ({added:.0f})" if added is not None else ""
-            print(f"| {nx} | {r['particles']} | {r['ranks']} x {r.get('threads', 1)} | {r['step_s'] * 1e3:.2f} | "
-                  f"{r['particle_steps_per_s']:.3g} | {100 * r['outside_numba_share']:.1f}% | "
+            cpu = r["cpu_s_per_step"] * 1e3 / r["ranks"]
+            print(f"| {nx} | {r['particles']} | {r['ranks']} x {r.get('threads', 1)} | {r['step_s'] * 1e3:.2f} ({cpu:.2f}) | "
+                  f"{r['particle_steps_per_s']:.3g} | {r.get('steps_per_rebuild', float('nan')):.1f} | "
+                  f"{100 * r['outside_numba_share']:.1f}% | "
                   f"{r['ns_per_pair_density']:.1f} ({r['ns_per_pair_reference_density']:.1f}) | "
                   f"{r['ns_per_pair_forces']:.1f} ({r['ns_per_pair_reference_forces']:.1f}) | "
                   f"{r['rss_bytes_per_particle']:.0f}{added} |")
@@ -58,17 +60,19 @@ def main(path):
                 s = r2["particle_steps_per_s"] / r1["particle_steps_per_s"]
                 vs = f"{100 * s / ceiling:.0f}%" if ceiling else "-"
                 print(f"| {nx}, {tag} | {s:.2f} | {100 * s / 2:.0f}% | {vs} |")
-    # halo and migration: the slowest rank's time per step (waiting for the other rank included)
-    # and, where recorded, the least over ranks (closer to the messages' own cost)
-    print("\n| N_x | ranks x threads | step [ms] | halo [ms] | migration [ms] | halo + migration, share of the step "
+    # the exchanges (sync: ghosts' positions, validity test, all-reduce; halo: ghosts' rho) and the
+    # list builds (migration included): the slowest rank's time per step (waiting for the other rank
+    # included) and, where recorded, the least over ranks (closer to the messages' own cost)
+    print("\n| N_x | ranks x threads | step [ms] | sync [ms] | rho exchange [ms] | list builds [ms] | share of the step "
           "| least over ranks |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for tag in ("1 rank", "2 ranks"):
         for nx, r in sorted(by.get(tag, {}).items()):
             ph, lo = r["phases_s"], r.get("phases_min_s")
-            least = f"{100 * (lo['halo'] + lo['migrate']) / r['step_s']:.1f}%" if lo else "-"
-            print(f"| {nx} | {r['ranks']} x {r.get('threads', 1)} | {r['step_s'] * 1e3:.2f} | {ph['halo'] * 1e3:.2f} | "
-                  f"{ph['migrate'] * 1e3:.2f} | {100 * (ph['halo'] + ph['migrate']) / r['step_s']:.1f}% | {least} |")
+            comm = lambda q: q["sync"] + q["halo"] + q["rebuild"]  # noqa: E731
+            least = f"{100 * comm(lo) / r['step_s']:.1f}%" if lo else "-"
+            print(f"| {nx} | {r['ranks']} x {r.get('threads', 1)} | {r['step_s'] * 1e3:.2f} | {ph['sync'] * 1e3:.2f} | "
+                  f"{ph['halo'] * 1e3:.2f} | {ph['rebuild'] * 1e3:.2f} | {100 * comm(ph) / r['step_s']:.1f}% | {least} |")
     print(f"\nMachine: {recs[0]['machine']}")
 
 
