@@ -90,6 +90,7 @@ def classical_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, form="paper")
 
 # ---- lattice sums ------------------------------------------------------------------------------------------
 @lru_cache(maxsize=64)
+@lru_cache(maxsize=16)  # a run asks with the same lattice at every step; callers do not modify the arrays
 def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
     """Sums of the lattice with h = 1 and steps ``spacing`` (in units of h) over the quarter zone.
 
@@ -146,6 +147,7 @@ def modes(theta, k, rho_s, G_a, G_b, h, spacing, kernel="cubic_spline", form="pa
 
 
 @lru_cache(maxsize=64)
+@lru_cache(maxsize=16)
 def wall_gamma_max(kernel, dim, spacing, beta_max, nrows=12, nkappa=NKAPPA):
     """The largest damping rate of the viscous operator in a channel with walls (h = 1, dimensionless).
 

@@ -19,7 +19,10 @@ Fields:
     disp                 displacement since the last rebuild (the list's validity test)
     jump                 length of the last step's displacement (run-time check 5)
 """
+import math
+
 import numpy as np
+from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 # recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
@@ -109,3 +112,25 @@ class Particles:
             arr = getattr(self, name)
             arr[:k] = arr[order]
         self.n_own = self.n = k
+
+
+@njit(cache=True)
+def state_maxima(vel, acc, theta, kind, n, theta_floor):
+    """(|v|_max, largest fluid theta (at least ``theta_floor``), |a|_max) of particles 0..n-1, one pass."""
+    v2 = 0.0
+    a2 = 0.0
+    th = theta_floor
+    dim = vel.shape[1]
+    for i in range(n):
+        sv = 0.0
+        sa = 0.0
+        for d in range(dim):
+            sv += vel[i, d] * vel[i, d]
+            sa += acc[i, d] * acc[i, d]
+        if not sv <= v2:  # NaN propagates: a blow-up is not hidden
+            v2 = sv
+        if not sa <= a2:
+            a2 = sa
+        if kind[i] == FLUID and not theta[i] <= th:
+            th = theta[i]
+    return math.sqrt(v2), th, math.sqrt(a2)

@@ -33,7 +33,7 @@ from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (
 from .kernels import get_kernel, lattice_sum
 from .neighbours import cell_coords, grid_for
 from .output import Frame, read_particles
-from .particles import FLUID, Particles
+from .particles import FLUID, Particles, state_maxima
 from .profile import bin_centres, bin_sums, errors
 from .rates import Rates
 from . import equations
@@ -222,13 +222,7 @@ class Simulation:
     def stable_dt(self):
         """The largest stable step for the current state (global minimum over ranks)."""
         ps, cfg = self.ps, self.cfg
-        n = ps.n_own
-        fluid = ps.kind[:n] == FLUID
-        local = np.array([
-            np.sqrt((ps.vel[:n] ** 2).sum(axis=1)).max(initial=0.0),
-            ps.theta[:n][fluid].max(initial=cfg.theta0),
-            np.sqrt((ps.acc[:n] ** 2).sum(axis=1)).max(initial=0.0),
-        ])
+        local = np.array(state_maxima(ps.vel, ps.acc, ps.theta, ps.kind, ps.n_own, cfg.theta0))
         vmax, theta_max, amax = self.collect.max(local)
         theta_max = min(theta_max, 0.999)
         return limits.stable_dt(cfg, theta_max, vmax, amax)[0]   # config.build's limits, at the current state

@@ -2,7 +2,8 @@
 
     [mpirun -n P] .venv/bin/python scripts/bench.py --nx 50 200 [--steps N] [--json FILE] [--tag TEXT]
 
-For each N_x the Couette case (L_y = L, h = 1.25 dx, dt = "auto") is built;
+For each N_x the Couette case (L_y = L, h = 1.25 dx, dt = "auto", recomputed every
+step from the state as ``parsph run`` does) is built;
 one step is taken to compile (numba caches on disk; the first-ever compile is
 reported as ``jit_s``), 200 more pass the impulsive start (whose first steps
 rebuild the neighbour list often), then ``--steps`` steps are timed. Phase times are the
@@ -226,16 +227,16 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     t0 = time.perf_counter()
     sim = Simulation(cfg, comm)
     sim.compute_rates()
-    sim.advance(cfg.dt)
+    sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
     jit = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     for _ in range(warmup):  # past the impulsive start, whose first steps rebuild the list often
         sim.compute_rates()
-        sim.advance(cfg.dt)
+        sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
     if steps is None:
         t1 = time.perf_counter()
         for _ in range(3):
             sim.compute_rates()
-            sim.advance(cfg.dt)
+            sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
         per = comm.allreduce((time.perf_counter() - t1) / 3, op=MPI.MAX)
         steps = max(10, int(budget / per))
     sim.timers.clear()
@@ -244,7 +245,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     c0, t0 = time.process_time(), time.perf_counter()
     for _ in range(steps):
         sim.compute_rates()
-        sim.advance(cfg.dt)
+        sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
     cpu = comm.allreduce(time.process_time() - c0, op=MPI.SUM)  # all ranks' CPU seconds in the timed steps
     comm.Barrier()
     wall = time.perf_counter() - t0
@@ -259,7 +260,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     t1 = time.perf_counter()
     for _ in range(n2):
         sim.compute_rates()
-        sim.advance(cfg.dt)
+        sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
     wall2 = time.perf_counter() - t1
     clock.remove()
     outside = comm.allreduce((wall2 - clock.seconds) / wall2, op=MPI.MAX)
