@@ -220,6 +220,12 @@ def current_rss():
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
+def step_dt(sim):
+    """The run's time step: recomputed from the state for dt = "auto" (as parsph run does), else fixed."""
+    cfg = sim.cfg
+    return cfg.get("numerics.dt_safety") * sim.stable_dt() if cfg.dt_auto else cfg.dt
+
+
 def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     cfg = make_config(nx, extra)
     rss0 = comm.allreduce(current_rss(), op=MPI.SUM)
@@ -227,16 +233,16 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     t0 = time.perf_counter()
     sim = Simulation(cfg, comm)
     sim.compute_rates()
-    sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
+    sim.advance(step_dt(sim))
     jit = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     for _ in range(warmup):  # past the impulsive start, whose first steps rebuild the list often
         sim.compute_rates()
-        sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
+        sim.advance(step_dt(sim))
     if steps is None:
         t1 = time.perf_counter()
         for _ in range(3):
             sim.compute_rates()
-            sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
+            sim.advance(step_dt(sim))
         per = comm.allreduce((time.perf_counter() - t1) / 3, op=MPI.MAX)
         steps = max(10, int(budget / per))
     sim.timers.clear()
@@ -245,7 +251,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     c0, t0 = time.process_time(), time.perf_counter()
     for _ in range(steps):
         sim.compute_rates()
-        sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
+        sim.advance(step_dt(sim))
     cpu = comm.allreduce(time.process_time() - c0, op=MPI.SUM)  # all ranks' CPU seconds in the timed steps
     comm.Barrier()
     wall = time.perf_counter() - t0
@@ -260,7 +266,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     t1 = time.perf_counter()
     for _ in range(n2):
         sim.compute_rates()
-        sim.advance(cfg.get("numerics.dt_safety") * sim.stable_dt())
+        sim.advance(step_dt(sim))
     wall2 = time.perf_counter() - t1
     clock.remove()
     outside = comm.allreduce((wall2 - clock.seconds) / wall2, op=MPI.MAX)
