@@ -123,6 +123,8 @@ def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
         one_minus_cos = 1.0 - np.cos(phase)
         D[lo:lo + chunk] = np.einsum("kn,nij->kij", one_minus_cos, H)
         V[lo:lo + chunk] = -(one_minus_cos * F).sum(axis=1)
+    for a in (kappa, b, D, V):  # cached and shared: read-only
+        a.setflags(write=False)
     return kappa, S, b, D, V
 
 
