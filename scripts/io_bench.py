@@ -37,6 +37,8 @@ import time
 
 import numpy as np
 
+from machine import cpu_model  # noqa: E402  (scripts/machine.py)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 PAPER = os.path.join(ROOT, "run", "couette_paper.toml")
@@ -44,14 +46,7 @@ NX, LAYERS, DY = 50, 3, 2e-4  # the paper lattice: N = Ny (Nx + 2 layers), dy = 
 
 
 def machine():
-    model = "unknown cpu"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    model = cpu_model()
     disk = subprocess.run(["df", "-hT", ROOT], capture_output=True, text=True).stdout.splitlines()[-1:]
     return {"host": platform.node(), "cores": os.cpu_count(), "cpu": model, "disk": " ".join(disk[0].split()[:3])
             if disk else "?", "mem_gb": round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 1e9, 1)}

@@ -42,18 +42,13 @@ import time
 from collections import defaultdict
 from types import SimpleNamespace
 
+from machine import cpu_model  # noqa: E402  (scripts/machine.py)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def machine():
-    model = "unknown cpu"
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
+    model = cpu_model()
     return f"{platform.node()}: {os.cpu_count()} cores, {model}"
 
 
