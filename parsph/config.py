@@ -9,7 +9,6 @@ import math
 import tomllib
 
 from .kernels import KERNEL_NAMES, get_kernel
-from . import closures
 from . import limits as stability
 from .integrate import INTEGRATORS
 from .scenes import SCENE_NAMES, get_scene

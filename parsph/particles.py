@@ -49,10 +49,6 @@ class Particles:
             self._spec[name] = (float, (self.dim,) if vector else ())
             setattr(self, name, np.zeros((self.capacity,) + self._spec[name][1]))
 
-    @property
-    def fields(self):
-        return tuple(self._spec)
-
     def _carried(self):
         return [(name, spec) for name, spec in self._spec.items() if name not in DERIVED]
 
@@ -78,10 +74,6 @@ class Particles:
         return p
 
     # ---- whole particles as float64 rows (migration) ----------------------------
-    @property
-    def row_width(self):
-        return sum(int(np.prod(shape, dtype=np.int64)) for _, (_, shape) in self._carried())
-
     def rows(self, idx):
         """Particles ``idx`` as float64 rows holding every field (ids are exact below 2^53)."""
         k = len(idx)

@@ -117,10 +117,6 @@ class Rates:
             self._threaded = (np.zeros(npairs), np.zeros(npairs), np.zeros(npairs), offset, entry)
         return self._threaded
 
-    @property
-    def pairs(self):
-        return self.npairs
-
     # ---- the passes ------------------------------------------------------------------
     def __call__(self, ps, halo, timers=None):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``halo.refresh(ps, ps.rho)`` updates the copies.

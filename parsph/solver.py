@@ -24,7 +24,6 @@ import time
 from collections import defaultdict
 
 import numpy as np
-from mpi4py import MPI
 
 from . import integrate, limits
 from .collectives import Collectives
@@ -116,14 +115,12 @@ class Simulation:
         self._sums = np.zeros((3, self.nbins))
         self._flags = np.zeros(3)
         self._flags_all = np.zeros(3)
-        self._coords = np.zeros((0, 3), np.int64)
         self._built = False      # no list yet: the first evaluation builds one
         self._bad = 0            # non-finite or jumping particles left by the last integration (this rank)
         self._stop_local = 0     # signal seen by this rank since the last sync
         self.force_rebuild = False
         self.stop = 0
         self.rebuilds = 0
-        self.syncs = 0
 
     # ---- the neighbour list ---------------------------------------------------------
     def _sync(self):
@@ -144,7 +141,6 @@ class Simulation:
         self._flags_all = self.collect.max(f)
         self._bad = 0
         self._stop_local = 0
-        self.syncs += 1
         self.timers["sync"] += time.perf_counter() - t0
         bad, stop, rebuild = self._flags_all
         if bad:
@@ -183,7 +179,6 @@ class Simulation:
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
         self.rates.build(ps, coords, box)
-        self._coords = coords
         self._built = True
         self.rebuilds += 1
         self.timers["rebuild"] += time.perf_counter() - t0
