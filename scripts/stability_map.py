@@ -220,7 +220,7 @@ GUARD_NAMES = {0: "probe", 1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5
 
 def run_and_classify(sim):
     """Run a probe to its end and classify the outcome by the criteria: the CSV columns shared
-    by the Couette and the column maps (steps_done is left to the row)."""
+    by the Couette and the column maps."""
     guard = crash = message = ""
     t0 = time.perf_counter()
     try:
@@ -239,7 +239,7 @@ def run_and_classify(sim):
     if stable:
         err_max, err_rms = sim.profile()["err"]
     first = min(fired, key=lambda c: (sim.first[c], CRITERIA.index(c))) if fired else (crash or guard)
-    return {"t_done": sim.t, "stable": int(stable), "first_failure": first,
+    return {"steps_done": sim.step, "t_done": sim.t, "stable": int(stable), "first_failure": first,
             "fail_step": -1 if stable else sim.step,
             **{f"{c}_step": sim.first[c] for c in CRITERIA},
             "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
@@ -257,7 +257,7 @@ def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, sourc
         "nx": nx, "theta0": theta0, "Re": Re, "k": k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["advection"],
         "dt_viscous": lim.get("viscous", math.inf), "dt_acoustic_damping": dt_ac, "steps_planned": cfg.nsteps,
-        "steps_done": sim.step, **outcome, "source": source, "commit": COMMIT, "integrator": integrator,
+        **outcome, "source": source, "commit": COMMIT, "integrator": integrator,
     }
 
 
@@ -577,14 +577,20 @@ def main(argv=None):
                     help="theta_0 = 0.7, Re = 57 at the --nx given: fixed dt = DAMPING_FRACTIONS x nu/c^2, "
                          "and dt = \"auto\" (the margin of the damping limit)")
     ap.add_argument("--pred", default="",
-                    help="columns 'theta:Re,...' at each --nx: fixed dt = PRED_MULTS x the predicted limit "
-                         "(stability_pred.csv) and one dt = \"auto\" run (stability_auto.csv)")
+                    help="columns 'theta:Re,...', 'all' (the grid) or 'midpoint' (its corner) at each --nx: fixed dt = "
+                         "PRED_MULTS x the predicted limit (stability_pred_<integrator>.csv) and one dt = \"auto\" "
+                         "run (stability_auto.csv); with --scene settling: auto in each column")
+    ap.add_argument("--bracket", action="store_true",
+                    help="with --pred: bracket each column's limit to 25 %% (1, 1.5, 2, doubling or halving, bisection)")
+    ap.add_argument("--auto-only", action="store_true", help="with --pred: only the dt = \"auto\" runs")
     ap.add_argument("--ratios", nargs="*", default=None,
                     help="CSVs of runs (any prediction): measured stable dt / the predicted limit per column")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     if a.ratios is not None:
         return main_ratios(a)
+    if a.pred and a.scene == "settling":
+        return main_settling_auto(a)
     if a.pred:
         return main_pred(a)
     if a.damping:
@@ -694,7 +700,7 @@ def settling_limits(theta0, nx, theta=None):
     return limits.run_limits(cfg, theta0 if theta is None else theta, cfg.velocity_scale, g)
 
 
-def settling_config(theta0, nx, multiple, steps=None):
+def settling_config(theta0, nx, multiple, steps=None, extra=()):
     """The column at dt = multiple x the predicted limit, for steps x that limit in time, and for
     at least SETTLING["min_steps"] steps (a time-step instability grows per step)."""
     raw = settling_raw()
@@ -704,7 +710,7 @@ def settling_config(theta0, nx, multiple, steps=None):
     over = [f"material.theta0={theta0!r}", f"numerics.Nx={nx}", f"domain.Ly={LY_IN_H * h!r}",
             f"numerics.dt={multiple * lim!r}", "numerics.allow_unstable_dt=true",
             f"output.t_end={steps * lim!r}", "output.times=[]", "output.progress_interval=0",
-            "checks.every=1", "checks.theta_change=1.0", "checks.energy=true"]
+            "checks.every=1", "checks.theta_change=1.0", "checks.energy=true", *extra]
     config.apply_overrides(raw, over)
     return config.build(raw, config.dumps(raw))
 
@@ -752,7 +758,7 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
         "nx": nx, "theta0": theta0, "Re": Re, "k": cfg.k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["advection"],
         "dt_viscous": lim.get("viscous", math.inf),
-        "dt_acoustic_damping": 2.0 * cfg.nu / c2, "steps_planned": cfg.nsteps, "steps_done": sim.step,
+        "dt_acoustic_damping": 2.0 * cfg.nu / c2, "steps_planned": cfg.nsteps,
         **outcome, "source": source, "commit": COMMIT,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
         "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
@@ -872,21 +878,10 @@ DAMPING_FRACTIONS = (0.1, 0.13, 0.16, 0.18, 0.2, 0.26)
 
 
 def run_auto(theta0, Re, nx, steps=STEPS, integrator="paper"):
-    """dt = "auto" (the run's limits) for about ``steps`` steps of its first dt (config.build's)."""
-    k, h, lim, term, _ = physics(theta0, Re, nx, integrator=integrator)
+    """dt = "auto" (the run's limits) for about ``steps`` steps of its first dt (config.build's):
+    (the outcome's CSV columns, the first dt)."""
     cfg = case_config(theta0, Re, nx, 1.0, steps, extra=['numerics.dt="auto"'], integrator=integrator)
-    first = cfg.dt
-    sim = Probe(cfg, MPI.COMM_SELF, THETA_FRAC)
-    msg = ""
-    t0 = time.perf_counter()
-    try:
-        with np.errstate(all="ignore"):
-            sim.run()
-    except Exception as e:  # noqa: BLE001 - a guard or anything else: reported
-        msg = f"{type(e).__name__}: {e}"
-    sim.wall_s = time.perf_counter() - t0
-    fired = [c for c in CRITERIA if sim.first[c] >= 0]
-    return sim, first, fired, msg
+    return run_and_classify(Probe(cfg, MPI.COMM_SELF, THETA_FRAC)), cfg.dt
 
 
 def main_damping(a, theta0=0.7, Re=57.0):
@@ -900,10 +895,11 @@ def main_damping(a, theta0=0.7, Re=57.0):
         for f in DAMPING_FRACTIONS:
             row = res.get(theta0, Re, nx, f * nu_c2 / lim[term], source="damping")
             got.append(f"{f:g}: {'stable' if row['stable'] == '1' else row['first_failure'] + ' @' + row['fail_step']}")
-        sim, first, fired, msg = run_auto(theta0, Re, nx)
+        out, first = run_auto(theta0, Re, nx)
         lines.append(f"N_x = {nx}: dt_pred = {lim[term]:.3g} s ({term}) = {lim[term] / nu_c2:.3g} nu/c^2; " + "; ".join(got))
-        lines.append(f"   auto: first dt {first:.3g} s = {first / nu_c2:.3g} nu/c^2, {sim.step} steps to t = {sim.t:.3g} s, "
-                     f"{'unstable: ' + ', '.join(fired) if fired else 'stable'} {msg}")
+        lines.append(f"   auto: first dt {first:.3g} s = {first / nu_c2:.3g} nu/c^2, {out['steps_done']} steps to "
+                     f"t = {out['t_done']:.3g} s, {'stable' if out['stable'] else 'unstable: ' + out['first_failure']} "
+                     f"{out['message']}")
         print(lines[-2] + "\n" + lines[-1], flush=True)
     with open(os.path.join(a.out, "summary_damping.txt"), "w") as f:
         f.write("\n".join(lines) + "\n")
@@ -916,37 +912,91 @@ AUTO_FIELDS = ["nx", "theta0", "Re", "integrator", "k", "dt_first", "term", "ste
                "fired", "message", "wall_s", "commit"]
 
 
+def bracket(res, theta0, Re, nx, tol=1.25, span=64.0, max_runs=14):
+    """Bracket the column's time-step limit in multiples of the prediction: 1, then 1.5, 2 and doubling
+    up (or 0.5 and halving down) to the first change, then bisection until fails/stable <= tol."""
+    res.get(theta0, Re, nx, 1.0, source="pred")
+    for _ in range(max_runs):
+        lo, hi = dt_bounds(column(res.rows, nx, theta0, Re))
+        if lo is None:
+            m = hi / 2
+            if m < 1 / span:
+                break
+        elif hi is None:
+            m = {1.0: 1.5, 1.5: 2.0}.get(lo, lo * 2)
+            if m > span:
+                break
+        elif hi / lo > tol:
+            m = math.sqrt(lo * hi)
+        else:
+            break
+        res.get(theta0, Re, nx, m, source="bracket")
+    return dt_bounds(column(res.rows, nx, theta0, Re))
+
+
+def auto_row(nx, theta0, Re, integrator, outcome, first, term, k):
+    return {"nx": nx, "theta0": repr(theta0), "Re": repr(Re), "integrator": integrator, "k": k,
+            "dt_first": first, "term": term, "steps_done": outcome["steps_done"], "t_done": outcome["t_done"],
+            "stable": outcome["stable"], "fired": outcome["first_failure"], "message": outcome["message"],
+            "wall_s": outcome["wall_s"], "commit": COMMIT}
+
+
+def record_auto(path, row):
+    new = not os.path.exists(path)
+    with open(path, "a", newline="") as f:
+        w = csv.DictWriter(f, AUTO_FIELDS)
+        if new:
+            w.writeheader()
+        w.writerow(row)
+    print(f"auto Nx={row['nx']} theta0={row['theta0']} Re={row['Re']} {row['integrator']}: first dt "
+          f"{row['dt_first']:.3g} s ({row['term']}), {row['steps_done']} steps, "
+          f"{'stable' if row['stable'] else 'UNSTABLE ' + row['fired'] + ' ' + row['message']}", flush=True)
+
+
 def main_pred(a):
-    """Fixed dt at PRED_MULTS x the prediction (0.5 too where 1 fails) and one auto run, per column."""
+    """Per column: fixed dt at multiples of the prediction (PRED_MULTS, 0.5 too where 1 fails; with
+    --bracket: bracketed to 25 %) unless --auto-only, and one dt = "auto" run."""
     res = Results(os.path.join(a.out, f"stability_pred_{a.integrator}.csv"), integrator=a.integrator)
     auto_path = os.path.join(a.out, "stability_auto.csv")
     done = {(r["nx"], r["theta0"], r["Re"], r["integrator"]) for r in load_rows(auto_path)}
-    cols = [tuple(float(x) for x in c.split(":")) for c in a.pred.split(",") if c]
+    if a.pred == "all":
+        cols = [(t, Re) for t in THETAS for Re in RES]
+    elif a.pred == "midpoint":
+        cols = [(t, Re) for t in MIDPOINT["theta0"] for Re in MIDPOINT["Re"]]
+    else:
+        cols = [tuple(float(x) for x in c.split(":")) for c in a.pred.split(",") if c]
     for nx in [int(x) for x in a.nx.split(",") if x]:
         for t, Re in cols:
-            for m in PRED_MULTS:
-                row = res.get(t, Re, nx, m, source="pred")
-                if row["stable"] != "1":
-                    if m == PRED_MULTS[0]:
-                        res.get(t, Re, nx, 0.5, source="pred")
-                    break
+            if a.bracket:
+                bracket(res, t, Re, nx)
+            elif not a.auto_only:
+                for m in PRED_MULTS:
+                    row = res.get(t, Re, nx, m, source="pred")
+                    if row["stable"] != "1":
+                        if m == PRED_MULTS[0]:
+                            res.get(t, Re, nx, 0.5, source="pred")
+                        break
             if (str(nx), repr(t), repr(Re), a.integrator) in done:
                 continue
-            sim, first, fired, msg = run_auto(t, Re, nx, integrator=a.integrator)
+            outcome, first = run_auto(t, Re, nx, integrator=a.integrator)
             k, h, lim, term, _ = physics(t, Re, nx, integrator=a.integrator)
-            row = {"nx": nx, "theta0": repr(t), "Re": repr(Re), "integrator": a.integrator, "k": k,
-                   "dt_first": first, "term": term, "steps_done": sim.step, "t_done": sim.t,
-                   "stable": int(not fired and not msg), "fired": " ".join(fired), "message": msg,
-                   "wall_s": round(sim.wall_s, 2), "commit": COMMIT}
-            new = not os.path.exists(auto_path)
-            with open(auto_path, "a", newline="") as f:
-                w = csv.DictWriter(f, AUTO_FIELDS)
-                if new:
-                    w.writeheader()
-                w.writerow(row)
-            print(f"auto Nx={nx} theta0={t:g} Re={Re:g} {a.integrator}: first dt {first:.3g} s ({term}), "
-                  f"{sim.step} steps, {'stable' if row['stable'] else 'UNSTABLE ' + row['fired'] + ' ' + msg}",
-                  flush=True)
+            record_auto(auto_path, auto_row(nx, t, Re, a.integrator, outcome, first, term, k))
+    return 0
+
+
+def main_settling_auto(a):
+    """dt = "auto" in each settling column (SETTLING["steps"] steps of the predicted limit in time)."""
+    auto_path = os.path.join(a.out, "stability_auto.csv")
+    done = {(r["nx"], r["theta0"], r["integrator"]) for r in load_rows(auto_path)}
+    nx = SETTLING["nx"]
+    for t in SETTLING["theta0"]:
+        if (str(nx), repr(t), "settling") in done:
+            continue
+        lim = settling_limits(t, nx)
+        cfg = settling_config(t, nx, 1.0, extra=['numerics.dt="auto"'])
+        outcome = run_and_classify(SettlingProbe(cfg, MPI.COMM_SELF, THETA_FRAC))
+        record_auto(auto_path, auto_row(nx, t, settling_re(t, nx), "settling", outcome, cfg.dt,
+                                        min(lim, key=lim.get), cfg.k))
     return 0
 
 
