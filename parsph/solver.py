@@ -254,21 +254,25 @@ class Simulation:
         finally:
             self.timers["checks"] += time.perf_counter() - t0
 
-    def frame(self, snapshot=True):
-        """What an output writes: time, step, dt, the profile and (``snapshot``) the owned particles,
-        positions wrapped into the box."""
+    def particles(self):
+        """The owned particles as an output writes them (read-only views; ``position`` wrapped into the
+        box, a copy; ``position_raw`` and ``ref`` as the solver holds them, for a restart)."""
         ps, n = self.ps, self.ps.n_own
-        fields = None
-        if snapshot:
-            pos = ps.pos[:n].copy()
-            for axis in range(ps.dim):
-                a = self.grid.axes[axis]
-                if a.periodic:
-                    pos[:, axis] %= a.period
-            fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": pos,
-                      "velocity": ps.vel[:n], "theta": ps.theta[:n],
-                      "position_raw": ps.pos[:n], "ref": ps.ref[:n]}  # the exact state, for a restart
-        return Frame(self.t, self.step, self.dt, self.profile(), fields)
+        pos = ps.pos[:n].copy()
+        for axis in range(ps.dim):
+            a = self.grid.axes[axis]
+            if a.periodic:
+                pos[:, axis] %= a.period
+        fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": pos,
+                  "velocity": ps.vel[:n], "theta": ps.theta[:n], "position_raw": ps.pos[:n], "ref": ps.ref[:n]}
+        for v in fields.values():
+            if v is not pos:
+                v.flags.writeable = False  # views of the solver's arrays
+        return fields
+
+    def frame(self, snapshot=True):
+        """What an output writes: time, step, dt, the profile and (``snapshot``) the owned particles."""
+        return Frame(self.t, self.step, self.dt, self.profile(), self.particles() if snapshot else None)
 
     # ---- the loop ----------------------------------------------------------------
     def _output_due(self, t_out):
@@ -276,8 +280,12 @@ class Simulation:
             return self.step == round(t_out / self.cfg.dt)
         return self.t >= t_out * (1 - 1e-12) - 1e-300
 
-    def run(self, output=None, progress=None, stop_requested=None):
+    def run(self, output=None, progress=None, stop_requested=None, observe=None):
         """Advance to t_end; ``output(frame, snapshot)`` at each output time, ``progress(sim, rate, eta)``.
+
+        ``observe(sim)`` is called at every step once the rates are evaluated, before the checks
+        (reading ``sim.step``, ``sim.t``, ``sim.particles()``, ``sim.profile()``); it must not change
+        the state, and may raise to end the run.
 
         ``stop_requested()`` (a signal number, 0 for none) is polled every
         step; when it is set on any rank the run writes a final output with
@@ -302,6 +310,8 @@ class Simulation:
                 pending.pop(0)
                 self.timers["output"] += time.perf_counter() - t0
             done = self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
+            if observe is not None:
+                observe(self)
             if self.step % check_every == 0 or done:
                 self.check()
             if done:

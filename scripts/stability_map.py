@@ -18,10 +18,11 @@ fixed
     dt = multiple * predicted limit,  predicted limit = min(von Neumann limit of the integrator, 0.5 h / V_w)
 
 (``parsph.limits``, as config.build takes it; ``numerics.allow_unstable_dt = true`` lets the
-multiples above 1 run). The solver's own guard runs every step
-(``checks.every = 1``) with the thresholds below, and the probe records the
-four criteria separately at every check (``check()`` is also what the
-per-step non-finite flag calls):
+multiples above 1 run). The package's guard (``parsph.guards``) runs every
+step (``checks.every = 1``) with the thresholds below and stops the run; an
+observer (``Simulation.run(observe=...)``, the ``Recorder`` here) records the
+four criteria separately at every step from ``Simulation.particles()``, and a
+guard failure counts for its criterion by its ``GuardResult.code``:
 
     nonfinite  a fluid particle with a non-finite position, velocity or acceleration
     wall       a fluid particle beyond a wall plane (x < 0 or x > L)
@@ -65,8 +66,8 @@ below the floor or above the lid; theta = max |theta - theta_eq(x)| /
 theta_eq(x) > THETA_FRAC against the settling equilibrium
 (parsph.analytic.settling_equilibrium, the form the run's pressure term
 converges to: scenes/settling.wall_theta); energy = fluid kinetic energy above
-the scene's own bound (settling.max_kinetic_energy: M g L). The probe stops a
-run at its first failure. Output: stability_settling.csv and
+the scene's own bound (settling.max_kinetic_energy: M g L). The recorder stops a
+run at its first failure (these are not the guard's criteria). Output: stability_settling.csv and
 stability_settling.png (docs/).
 """
 import argparse
@@ -94,7 +95,7 @@ from parsph import analytic  # noqa: E402
 from parsph.scenes import settling as settling_scene  # noqa: E402
 from parsph.closures import modulus  # noqa: E402
 from parsph.particles import FLUID  # noqa: E402
-from parsph.guards import GuardError, GuardResult  # noqa: E402
+from parsph.guards import GuardError  # noqa: E402
 from parsph.solver import Simulation  # noqa: E402
 
 PAPER = ROOT / "run" / "couette_paper.toml"
@@ -165,11 +166,13 @@ def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, ex
     return config.build(raw, config.dumps(raw))
 
 
-class Probe(Simulation):
-    """The solver with every check also recorded criterion by criterion."""
+class Recorder:
+    """Observer of a run (``Simulation.run(observe=...)``): the four criteria, recorded criterion by
+    criterion at every step from the particles the solver exposes, and the largest theta deviation,
+    kinetic-energy and speed ratios seen. It changes nothing; the run's own guard stops it."""
 
-    def __init__(self, cfg, comm, theta_frac):
-        super().__init__(cfg, comm)
+    def __init__(self, cfg, theta_frac):
+        self.cfg = cfg
         self.theta_frac = theta_frac
         self.first = {c: -1 for c in CRITERIA}
         self.max_theta_dev = 0.0
@@ -183,15 +186,14 @@ class Probe(Simulation):
         """The theta each fluid particle's deviation is measured against, at its x."""
         return self.cfg.theta0
 
-    def measure(self):
-        """(criteria violated now, theta deviation, KE ratio, speed ratio) of the owned fluid."""
-        ps, cfg = self.ps, self.cfg
-        n = ps.n_own
-        fl = ps.kind[:n] == FLUID
-        pos, vel, acc, theta, m = ps.pos[:n][fl], ps.vel[:n][fl], ps.acc[:n][fl], ps.theta[:n][fl], ps.mass[:n][fl]
+    def measure(self, p):
+        """(criteria violated now, theta deviation, KE ratio, speed ratio) of the fluid in ``p``
+        (``Simulation.particles()``; the guard's check 1 covers non-finite accelerations)."""
+        fl = p["kind"] == FLUID
+        pos, vel, theta, m = p["position"][fl], p["velocity"][fl], p["theta"][fl], p["mass"][fl]
         with np.errstate(all="ignore"):
-            nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all() and np.isfinite(acc).all())
-            wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > cfg.L)).any())
+            nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all())
+            wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > self.cfg.L)).any())
             ref = self.theta_ref(pos[:, 0])
             dev = float(np.nanmax(np.abs(theta - ref) / ref)) if theta.size else 0.0
             if not np.isfinite(theta).all():
@@ -204,46 +206,59 @@ class Probe(Simulation):
                "energy": not ke_ratio <= 1.0}
         return now, dev, ke_ratio, speed
 
-    def check(self):
-        now, dev, ke_ratio, speed = self.measure()
+    def __call__(self, sim):
+        now, dev, ke_ratio, speed = self.measure(sim.particles())
         for c in CRITERIA:
             if now[c] and self.first[c] < 0:
-                self.first[c] = self.step
+                self.first[c] = sim.step
         self.max_theta_dev = max(self.max_theta_dev, dev)
         self.max_ke_ratio = max(self.max_ke_ratio, ke_ratio)
         self.max_speed_ratio = max(self.max_speed_ratio, speed)
-        super().check()
+        return now, dev, ke_ratio
 
 
-GUARD_NAMES = {0: "probe", 1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}  # GuardResult.code
+class CriterionFailed(RuntimeError):
+    """A recorder's own criterion stopped the run (the settling column's; the guard does not check them)."""
 
 
-def run_and_classify(sim):
-    """Run a probe to its end and classify the outcome by the criteria: the CSV columns shared
-    by the Couette and the column maps."""
+# the package's checks (parsph.guards.CHECKS, GuardResult.code) by the criterion they measure
+GUARD_NAMES = {1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}
+
+
+def run_and_classify(cfg, rec):
+    """Run ``cfg`` (the solver on MPI.COMM_SELF) to its end, observed by the recorder ``rec``, and
+    classify the outcome by the criteria: the CSV columns shared by the Couette and the column maps.
+
+    A failure of the package's guard (GuardError) is named by its result's code and counts for that
+    criterion at its step (the per-step non-finite flag fires before the observer sees the step)."""
+    sim = Simulation(cfg, MPI.COMM_SELF)
     guard = crash = message = ""
     t0 = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
-            sim.run()
+            sim.run(observe=rec)
     except GuardError as e:
         message = str(e)
         guard = GUARD_NAMES.get(e.result.code, "other")
+        if guard in rec.first and rec.first[guard] < 0:
+            rec.first[guard] = e.result.step
+    except CriterionFailed as e:
+        message, guard = str(e), "probe"
     except Exception as e:  # noqa: BLE001 - anything else is a finding (the guard missed it)
         crash = type(e).__name__
         message = f"{type(e).__name__}: {e}"
     wall_s = time.perf_counter() - t0
-    fired = [c for c in CRITERIA if sim.first[c] >= 0]
+    fired = [c for c in CRITERIA if rec.first[c] >= 0]
     stable = not fired and not crash and not guard
     err_max = err_rms = math.nan
     if stable:
         err_max, err_rms = sim.profile()["err"]
-    first = min(fired, key=lambda c: (sim.first[c], CRITERIA.index(c))) if fired else (crash or guard)
+    first = min(fired, key=lambda c: (rec.first[c], CRITERIA.index(c))) if fired else (crash or guard)
     return {"steps_done": sim.step, "t_done": sim.t, "stable": int(stable), "first_failure": first,
             "fail_step": -1 if stable else sim.step,
-            **{f"{c}_step": sim.first[c] for c in CRITERIA},
-            "max_theta_dev": sim.max_theta_dev, "max_ke_ratio": sim.max_ke_ratio,
-            "max_speed_ratio": sim.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
+            **{f"{c}_step": rec.first[c] for c in CRITERIA},
+            "max_theta_dev": rec.max_theta_dev, "max_ke_ratio": rec.max_ke_ratio,
+            "max_speed_ratio": rec.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
             "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3)}
 
 
@@ -251,8 +266,7 @@ def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, sourc
     """Run one case; return its CSV row (dict)."""
     cfg = case_config(theta0, Re, nx, multiple, steps, theta_frac, integrator=integrator)
     k, h, lim, term, dt_ac = physics(theta0, Re, nx, integrator=integrator)
-    sim = Probe(cfg, MPI.COMM_SELF, theta_frac)
-    outcome = run_and_classify(sim)
+    outcome = run_and_classify(cfg, Recorder(cfg, theta_frac))
     return {
         "nx": nx, "theta0": theta0, "Re": Re, "k": k, "multiple": multiple, "dt": cfg.dt,
         "dt_limit": lim[term], "limit_term": term, "dt_cfl": lim["advection"],
@@ -715,13 +729,13 @@ def settling_config(theta0, nx, multiple, steps=None, extra=()):
     return config.build(raw, config.dumps(raw))
 
 
-class SettlingProbe(Probe):
+class SettlingRecorder(Recorder):
     """The criteria of the column: theta against the settling equilibrium, the scene's energy bound.
 
-    Stops the run (GuardError) at the first criterion that fails."""
+    Stops the run (CriterionFailed) at the first criterion that fails."""
 
-    def __init__(self, cfg, comm, theta_frac):
-        super().__init__(cfg, comm, theta_frac)
+    def __init__(self, cfg, theta_frac):
+        super().__init__(cfg, theta_frac)
         self.xs = np.linspace(0.0, cfg.L, 2001)
         # the balance the run's pressure form converges to: what the scene's walls hold
         self.theta_eq = cfg.scene.wall_theta(cfg, self.xs)
@@ -731,17 +745,13 @@ class SettlingProbe(Probe):
     def theta_ref(self, x):
         return np.interp(np.nan_to_num(x), self.xs, self.theta_eq)
 
-    def check(self):
-        now, dev, ke_ratio, speed = self.measure()
+    def __call__(self, sim):
+        now, dev, ke_ratio = super().__call__(sim)
         fired = [c for c in CRITERIA if now[c]]
         if fired:
-            for c in fired:
-                if self.first[c] < 0:
-                    self.first[c] = self.step
-            msg = (f"probe: {', '.join(fired)} at step {self.step}, t = {self.t:.6g} s "
-                   f"(theta dev {dev:.3g}, KE/bound {ke_ratio:.3g})")
-            raise GuardError(GuardResult(0, self.step, self.t, -1, math.nan, math.nan, dev, msg))
-        super().check()
+            raise CriterionFailed(f"probe: {', '.join(fired)} at step {sim.step}, t = {sim.t:.6g} s "
+                                  f"(theta dev {dev:.3g}, KE/bound {ke_ratio:.3g})")
+        return now, dev, ke_ratio
 
 
 def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
@@ -749,10 +759,10 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
     cfg = settling_config(theta0, nx, multiple, steps)
     lim = settling_limits(theta0, nx)
     term = min(lim, key=lim.get)
-    sim = SettlingProbe(cfg, MPI.COMM_SELF, THETA_FRAC)
-    th_eq = float(sim.theta_eq.max())
+    rec = SettlingRecorder(cfg, THETA_FRAC)
+    th_eq = float(rec.theta_eq.max())
     lim_eq = settling_limits(theta0, nx, th_eq)
-    outcome = run_and_classify(sim)
+    outcome = run_and_classify(cfg, rec)
     c2 = modulus(theta0, cfg.G_a, cfg.G_b) / cfg.rho_s
     return {
         "nx": nx, "theta0": theta0, "Re": Re, "k": cfg.k, "multiple": multiple, "dt": cfg.dt,
@@ -762,7 +772,7 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
         **outcome, "source": source, "commit": COMMIT,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
         "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
-        "ke_bound": sim.ke_bound_per_mass,
+        "ke_bound": rec.ke_bound_per_mass,
     }
 
 
@@ -881,7 +891,7 @@ def run_auto(theta0, Re, nx, steps=STEPS, integrator="paper"):
     """dt = "auto" (the run's limits) for about ``steps`` steps of its first dt (config.build's):
     (the outcome's CSV columns, the first dt)."""
     cfg = case_config(theta0, Re, nx, 1.0, steps, extra=['numerics.dt="auto"'], integrator=integrator)
-    return run_and_classify(Probe(cfg, MPI.COMM_SELF, THETA_FRAC)), cfg.dt
+    return run_and_classify(cfg, Recorder(cfg, THETA_FRAC)), cfg.dt
 
 
 def main_damping(a, theta0=0.7, Re=57.0):
@@ -994,7 +1004,7 @@ def main_settling_auto(a):
             continue
         lim = settling_limits(t, nx)
         cfg = settling_config(t, nx, 1.0, extra=['numerics.dt="auto"'])
-        outcome = run_and_classify(SettlingProbe(cfg, MPI.COMM_SELF, THETA_FRAC))
+        outcome = run_and_classify(cfg, SettlingRecorder(cfg, THETA_FRAC))
         record_auto(auto_path, auto_row(nx, t, settling_re(t, nx), "settling", outcome, cfg.dt,
                                         min(lim, key=lim.get), cfg.k))
     return 0

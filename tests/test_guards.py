@@ -5,6 +5,7 @@ names the wrong particle, misses the theta range, or lets a particle jump a slab
   (and the other way round): the message names the deeper one's position on every rank;
 - theta range (check 3): the particle furthest from theta_0 is named; a real run with a tight
   checks.theta_change stops with check 3;
+- an observer passed to ``run`` sees every step and changes nothing (bit for bit);
 - check 5 ("moved more than h in one step"): ``mpirun -n 2 parsph run`` with the plate moving
   4h in one step exits 3 with one message line, at the first step (the jump is counted with the
   non-finite states in the per-step all-reduce).
@@ -119,6 +120,37 @@ def test_theta_range_stops_a_run():
         sim.run()
     assert str(e.value).startswith(f"check failed: {CHECKS[3]} at step "), e.value
     assert sim.step <= 10
+
+
+# ---- an observer of the run (what the stability map uses instead of overriding the checks) -----------
+def test_observer_sees_every_step_and_changes_nothing():
+    """``run(observe=...)`` calls the observer once per step 0..N, before the checks, with read-only
+    particles; the run ends bit for bit where a run without one ends; an observer that raises ends it."""
+    seen = []
+
+    def observe(sim):
+        p = sim.particles()
+        assert not p["velocity"].flags.writeable and not p["theta"].flags.writeable
+        seen.append((sim.step, p["velocity"].copy()))
+
+    plain, watched = _sim(), _sim()
+    plain.run()
+    watched.run(observe=observe)
+    assert [s for s, _ in seen] == list(range(plain.cfg.nsteps + 1))
+    assert np.array_equal(seen[-1][1], plain.particles()["velocity"])
+    for f in ("position_raw", "velocity", "theta"):
+        assert np.array_equal(plain.particles()[f], watched.particles()[f]), f
+
+    class Stop(Exception):
+        pass
+
+    def stop_at_3(sim):
+        if sim.step == 3:
+            raise Stop
+    sim = _sim()
+    with pytest.raises(Stop):
+        sim.run(observe=stop_at_3)
+    assert sim.step == 3
 
 
 # ---- check 5: a particle moved more than h in one step (2 ranks) ---------------------------------
