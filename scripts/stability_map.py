@@ -492,7 +492,8 @@ def plot(rows, outdir, nx_list, tag=""):
             if mx:
                 ax.plot(*zip(*mx), "-", color="k", lw=1.2)
             tt = np.linspace(0.05, 0.7, 60)
-            ac = [physics(t, Re, nx)[4] / min(physics(t, Re, nx)[2].values()) for t in tt]
+            integ = "midpoint" if tag == "midpoint" else "paper"
+            ac = [physics(t, Re, nx)[4] / min(physics(t, Re, nx, integrator=integ)[2].values()) for t in tt]
             ax.plot(tt, ac, ":", color="tab:blue", lw=1.2)
             ax.axhline(1.0, color="tab:gray", lw=1.5, ls="--")
             ax.set_yscale("log", base=2)
@@ -515,7 +516,8 @@ def plot(rows, outdir, nx_list, tag=""):
                    Line2D([], [], ls=":", color="tab:blue", label=r"$2\nu/c^2$")]
         fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=7.5, frameon=False)
         what = f"{tag} integrator, " if tag else ""
-        fig.suptitle(f"Couette stability, N_x = {nx}, {what}{STEPS} steps of a fixed dt = multiple x predicted limit",
+        fig.suptitle(f"Couette stability, N_x = {nx}, {what}{STEPS} steps of a fixed dt; y: dt / the limit of "
+                     "parsph.limits",
                      fontsize=10)
         fig.tight_layout(rect=(0, 0.1, 1, 0.95))
         png = os.path.join(outdir, f"stability_map{'_' + tag if tag else ''}_nx{nx}.png")
@@ -525,33 +527,102 @@ def plot(rows, outdir, nx_list, tag=""):
     if tag:
         return figs
 
-    # measured stable dt [s] against the predicted limit, per theta_0 (N_x = 50)
-    lims = measured_limits(rows, 50)
-    if lims:
-        res_here = sorted({k[1] for k in lims})
-        fig, ax = plt.subplots(figsize=(7.2, 4.8))
-        colors = plt.cm.viridis(np.linspace(0, 0.9, len(res_here)))
-        for col, Re in zip(colors, res_here):
-            ts = sorted(t for t, r in lims if r == Re)
-            tt = np.linspace(min(ts), max(ts), 80)
-            ax.plot(tt, [min(physics(t, Re, 50)[2].values()) for t in tt], "--", color=col, lw=1)
-            pts = [(t, lims[(t, Re)][0] * min(physics(t, Re, 50)[2].values())) for t in ts
-                   if lims[(t, Re)][0] is not None]
-            if pts:
-                ax.plot(*zip(*pts), "o-", color=col, ms=4, label=f"Re = {Re:g}")
-        ax.set_yscale("log")
-        ax.set_xlabel(r"$\theta_0$")
-        ax.set_ylabel("dt [s]")
-        ax.set_title("Largest dt without a time-step failure in 2,000 steps (points)\n"
-                     "against the predicted limit (dashed), N_x = 50, paper integrator", fontsize=9)
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3, which="both")
+    # measured stable dt [s] against the predicted limit, per theta_0 (N_x = 50 and 200)
+    nxs = [nx for nx in (50, 200) if measured_limits(rows, nx)]
+    if nxs:
+        fig, axes = plt.subplots(1, len(nxs), figsize=(6.2 * len(nxs), 4.8), squeeze=False, sharey=True)
+        for ax, nx in zip(axes[0], nxs):
+            lims = measured_limits(rows, nx)
+            res_here = sorted({k[1] for k in lims})
+            colors = plt.cm.viridis(np.linspace(0, 0.9, len(res_here)))
+            for col, Re in zip(colors, res_here):
+                ts = sorted(t for t, r in lims if r == Re)
+                tt = np.linspace(min(ts), max(ts), 40)
+                ax.plot(tt, [min(physics(t, Re, nx)[2].values()) for t in tt], "--", color=col, lw=1)
+                pts = [(t, lims[(t, Re)][0] * min(physics(t, Re, nx)[2].values())) for t in ts
+                       if lims[(t, Re)][0] is not None]
+                if pts:
+                    ax.plot(*zip(*pts), "o-", color=col, ms=4, label=f"Re = {Re:g}")
+            ax.set_yscale("log")
+            ax.set_xlabel(r"$\theta_0$")
+            ax.set_title(f"N_x = {nx}", fontsize=10)
+            ax.grid(alpha=0.3, which="both")
+        axes[0][0].set_ylabel("dt [s]")
+        axes[0][0].legend(fontsize=8)
+        fig.suptitle("Largest dt without a time-step failure in 2,000 steps (points) against the predicted "
+                     "limit of parsph.limits (dashed), paper integrator", fontsize=9)
         fig.tight_layout()
         png = os.path.join(outdir, "stability_dt.png")
         fig.savefig(png, dpi=80)
         plt.close(fig)
         figs.append(png)
     return figs
+
+
+_PRED = {}
+
+
+def predicted(integrator, nx, theta0, Re):
+    """parsph.limits' prediction now for a Couette column (memoised)."""
+    key = (integrator, nx, round(theta0, 6), round(Re, 6))
+    if key not in _PRED:
+        k, h, lim, term, _ = physics(theta0, Re, nx, integrator=integrator)
+        _PRED[key] = lim[term]
+    return _PRED[key]
+
+
+def renormalised(rows, integrator="paper"):
+    """The rows with ``multiple`` = dt / the prediction now (runs made against any earlier prediction
+    are at an absolute dt), so that bounds, verdicts and figures are in multiples of the new limit."""
+    out = []
+    for r in rows:
+        integ = r.get("integrator") or integrator
+        p = predicted(integ, int(r["nx"]), float(r["theta0"]), float(r["Re"]))
+        out.append({**r, "integrator": integ, "multiple": repr(float(r["dt"]) / p), "dt_limit": repr(p)})
+    return out
+
+
+def renormalised_settling(rows):
+    """Settling rows against the prediction now: multiple, dt_limit, the limit at the floor's theta and the
+    classical terms (what plot_settling draws)."""
+    out, cache = [], {}
+    for r in rows:
+        t = float(r["theta0"])
+        if t not in cache:
+            lim = settling_limits(t, SETTLING["nx"])
+            eq = settling_limits(t, SETTLING["nx"], float(r["theta_eq_max"]))
+            cache[t] = {"dt_limit": min(lim.values()), "limit_term": min(lim, key=lim.get),
+                        "dt_limit_eq": min(eq.values()), "dt_cfl": lim["advection"],
+                        "dt_viscous": lim.get("viscous", math.inf), "dt_force": lim["force"]}
+        c = cache[t]
+        out.append({**r, **{k: repr(v) if isinstance(v, float) else v for k, v in c.items()},
+                    "multiple": repr(float(r["dt"]) / c["dt_limit"])})
+    return out
+
+
+def main_figures(a):
+    """Every figure of docs/stability.md against the prediction now, from the CSVs given (--figures):
+    Couette runs of both integrators (the integrator column, or 'midpoint' in the file name) and the
+    settling runs (stability_settling.csv)."""
+    paper, mid, settle = [], [], []
+    for path in a.figures:
+        rows = load_rows(path)
+        if "settling" in os.path.basename(path):
+            settle += rows
+            continue
+        for r in rows:
+            integ = r.get("integrator") or ("midpoint" if "midpoint" in os.path.basename(path) else "paper")
+            (mid if integ == "midpoint" else paper).append({**r, "integrator": integ})
+    figs = []
+    if paper:
+        figs += plot(renormalised(paper), a.out, sorted({int(r["nx"]) for r in paper}))
+    if mid:
+        figs += plot(renormalised(mid), a.out, sorted({int(r["nx"]) for r in mid}), tag="midpoint")
+    if settle:
+        figs.append(plot_settling(renormalised_settling(settle), a.out))
+    for png in figs:
+        print(f"wrote {png}")
+    return 0
 
 
 def summary(rows, nx=50, title=""):
@@ -596,13 +667,20 @@ def main(argv=None):
                          "run (stability_auto.csv); with --scene settling: auto in each column")
     ap.add_argument("--bracket", action="store_true",
                     help="with --pred: bracket each column's limit to 25 %% (1, 1.5, 2, doubling or halving, bisection)")
+    ap.add_argument("--seed", nargs="*", default=[],
+                    help="with --bracket: CSVs of earlier runs; a column whose bounds there lie beyond 1.5x (stable) or "
+                         "3x (failing) the prediction starts its bracket from them")
     ap.add_argument("--auto-only", action="store_true", help="with --pred: only the dt = \"auto\" runs")
+    ap.add_argument("--figures", nargs="*", default=None,
+                    help="CSVs of runs (any prediction): redraw every figure against the prediction now")
     ap.add_argument("--ratios", nargs="*", default=None,
                     help="CSVs of runs (any prediction): measured stable dt / the predicted limit per column")
     a = ap.parse_args(argv)
     os.makedirs(a.out, exist_ok=True)
     if a.ratios is not None:
         return main_ratios(a)
+    if a.figures is not None:
+        return main_figures(a)
     if a.pred and a.scene == "settling":
         return main_settling_auto(a)
     if a.pred:
@@ -833,9 +911,9 @@ def plot_settling(rows, outdir):
                Line2D([], [], ls=":", color="tab:purple", label="min(CFL, viscous, force): no damping"),
                Line2D([], [], ls="-", color="k", label="measured limit")]
     fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=3, frameon=False)
-    ax.set_title(f"Settling column, N_x = {nx}, g = 30 m/s$^2$, k = 1, paper integrator:\n"
-                 f"fixed dt = multiple x predicted limit, {SETTLING['steps']} steps of that limit "
-                 f"(at least {SETTLING['min_steps']} steps)", fontsize=9)
+    ax.set_title(f"Settling column, N_x = {nx}, g = 30 m/s$^2$, k = 1, paper integrator, fixed dt\n"
+                 f"(runs of {SETTLING['steps']} steps of the limit they were run against, at least "
+                 f"{SETTLING['min_steps']} steps)", fontsize=9)
     fig.tight_layout(rect=(0, 0.14, 1, 1))
     png = os.path.join(outdir, "stability_settling.png")
     fig.savefig(png, dpi=80)
@@ -922,10 +1000,15 @@ AUTO_FIELDS = ["nx", "theta0", "Re", "integrator", "k", "dt_first", "term", "ste
                "fired", "message", "wall_s", "commit"]
 
 
-def bracket(res, theta0, Re, nx, tol=1.25, span=64.0, max_runs=14):
+def bracket(res, theta0, Re, nx, tol=1.25, span=64.0, max_runs=14, seed=(None, None)):
     """Bracket the column's time-step limit in multiples of the prediction: 1, then 1.5, 2 and doubling
-    up (or 0.5 and halving down) to the first change, then bisection until fails/stable <= tol."""
-    res.get(theta0, Re, nx, 1.0, source="pred")
+    up (or 0.5 and halving down) to the first change, then bisection until fails/stable <= tol.
+
+    ``seed``: (stable, failing) multiples from earlier runs of the column (either may be None); both
+    are run again here and the search starts from them instead of from 1."""
+    seeded = [m for m in seed if m is not None]
+    for m in seeded or [1.0]:
+        res.get(theta0, Re, nx, m, source="pred")
     for _ in range(max_runs):
         lo, hi = dt_bounds(column(res.rows, nx, theta0, Re))
         if lo is None:
@@ -976,9 +1059,17 @@ def main_pred(a):
     else:
         cols = [tuple(float(x) for x in c.split(":")) for c in a.pred.split(",") if c]
     for nx in [int(x) for x in a.nx.split(",") if x]:
+        seeds = {}
+        for path in a.seed:     # earlier runs of the column (absolute dt): where the bracket starts
+            for (integ, nx_, t, Re), rows in columns_of(path).items():
+                if integ == a.integrator and nx_ == nx:
+                    p = predicted(integ, nx, t, Re)
+                    lo, hi = (None if v is None else v / p for v in measured_bounds(rows))
+                    if (lo is not None and lo > 1.5) or (hi is not None and hi > 3.0):  # else 1, 1.5, 2 is shorter
+                        seeds[(t, Re)] = (lo, hi)
         for t, Re in cols:
             if a.bracket:
-                bracket(res, t, Re, nx)
+                bracket(res, t, Re, nx, seed=seeds.get((round(t, 6), round(Re, 6)), (None, None)))
             elif not a.auto_only:
                 for m in PRED_MULTS:
                     row = res.get(t, Re, nx, m, source="pred")
@@ -1024,17 +1115,24 @@ def measured_bounds(rows):
     return lo, hi
 
 
+def columns_of(path, cols=None):
+    """{(integrator, N_x, theta_0, Re): rows} of a CSV of Couette runs (added to ``cols``)."""
+    cols = {} if cols is None else cols
+    for r in load_rows(path):
+        r.setdefault("integrator", "paper")
+        if "midpoint" in os.path.basename(path):
+            r["integrator"] = "midpoint"
+        key = (r["integrator"] or "paper", int(r["nx"]), round(float(r["theta0"]), 6), round(float(r["Re"]), 6))
+        cols.setdefault(key, []).append(r)
+    return cols
+
+
 def main_ratios(a):
     """Per (integrator, N_x, theta_0, Re): the measured bounds over every run in the CSVs (absolute dt)
     divided by parsph.limits' prediction now (ratios.csv)."""
     cols = {}
     for path in a.ratios:
-        for r in load_rows(path):
-            r.setdefault("integrator", "paper")
-            if "midpoint" in os.path.basename(path):
-                r["integrator"] = "midpoint"
-            key = (r["integrator"] or "paper", int(r["nx"]), round(float(r["theta0"]), 6), round(float(r["Re"]), 6))
-            cols.setdefault(key, []).append(r)
+        columns_of(path, cols)
     out = []
     for (integ, nx, t, Re), rows in sorted(cols.items()):
         k, h, lim, term, dt_ac = physics(t, Re, nx, integrator=integ)
