@@ -446,7 +446,7 @@ def long_checks(res, out_dir, nx=50, ratio=2.0, extend=1.3, tol=0.1):
 
 # ---- figures -----------------------------------------------------------------------------------------
 MARK = {"nonfinite": ("X", "tab:red"), "wall": ("v", "tab:purple"), "theta": ("s", "tab:orange"),
-        "energy": ("^", "tab:red")}
+        "energy": ("^", "tab:red"), "jump": ("*", "tab:brown")}
 
 
 def measured_limits(rows, nx):
@@ -508,6 +508,7 @@ def plot(rows, outdir, nx_list, tag=""):
                    Line2D([], [], marker="s", ls="", color="tab:orange", label="unstable: theta"),
                    Line2D([], [], marker="X", ls="", color="tab:red", label="unstable: non-finite"),
                    Line2D([], [], marker="v", ls="", color="tab:purple", label="unstable: wall"),
+                   Line2D([], [], marker="*", ls="", color="tab:brown", label="unstable: moved > h (check 5)"),
                    Line2D([], [], marker="P", ls="", color="k", label="crash (no guard)"),
                    Line2D([], [], marker="D", ls="", color="tab:gray", label="fails at a fixed time, any dt"),
                    Line2D([], [], marker="o", ls="", color="tab:gray", fillstyle="none", label="bisection run"),
@@ -666,11 +667,14 @@ def main(argv=None):
                          "PRED_MULTS x the predicted limit (stability_pred_<integrator>.csv) and one dt = \"auto\" "
                          "run (stability_auto.csv); with --scene settling: auto in each column")
     ap.add_argument("--bracket", action="store_true",
-                    help="with --pred: bracket each column's limit to 25 %% (1, 1.5, 2, doubling or halving, bisection)")
+                    help="with --pred: bracket each column's limit to --tol (1, 1.5, 2, doubling or halving, bisection)")
     ap.add_argument("--seed", nargs="*", default=[],
                     help="with --bracket: CSVs of earlier runs; a column whose bounds there lie beyond 1.5x (stable) or "
                          "3x (failing) the prediction starts its bracket from them")
+    ap.add_argument("--tol", type=float, default=1.25, help="with --bracket: bisect until failing / stable <= TOL")
     ap.add_argument("--auto-only", action="store_true", help="with --pred: only the dt = \"auto\" runs")
+    ap.add_argument("--longer", default="", help="'nx:theta:Re:multiple:steps,...': single runs of any length")
+    ap.add_argument("--auto", default="", help="with --ratios: the dt = \"auto\" runs (stability_auto.csv)")
     ap.add_argument("--figures", nargs="*", default=None,
                     help="CSVs of runs (any prediction): redraw every figure against the prediction now")
     ap.add_argument("--ratios", nargs="*", default=None,
@@ -681,6 +685,8 @@ def main(argv=None):
         return main_ratios(a)
     if a.figures is not None:
         return main_figures(a)
+    if a.longer:
+        return main_longer(a)
     if a.pred and a.scene == "settling":
         return main_settling_auto(a)
     if a.pred:
@@ -1069,7 +1075,7 @@ def main_pred(a):
                         seeds[(t, Re)] = (lo, hi)
         for t, Re in cols:
             if a.bracket:
-                bracket(res, t, Re, nx, seed=seeds.get((round(t, 6), round(Re, 6)), (None, None)))
+                bracket(res, t, Re, nx, tol=a.tol, seed=seeds.get((round(t, 6), round(Re, 6)), (None, None)))
             elif not a.auto_only:
                 for m in PRED_MULTS:
                     row = res.get(t, Re, nx, m, source="pred")
@@ -1115,6 +1121,18 @@ def measured_bounds(rows):
     return lo, hi
 
 
+def main_longer(a):
+    """Runs longer than STEPS at a multiple that was stable for STEPS (--longer 'nx:theta:Re:multiple:steps,...'):
+    does a step above the asymptotic limit fail later (stability_longer.csv)?"""
+    for spec in a.longer.split(","):
+        nx, t, Re, m, steps = spec.split(":")
+        res = Results(os.path.join(a.out, "stability_longer.csv"),
+                      runner=lambda t_, r_, nx_, m_, source, n=int(steps): run_case(t_, r_, nx_, m_, steps=n,
+                                                                                  source=source))
+        res.get(float(t), float(Re), int(nx), float(m), source=f"longer {steps}")
+    return 0
+
+
 def columns_of(path, cols=None):
     """{(integrator, N_x, theta_0, Re): rows} of a CSV of Couette runs (added to ``cols``)."""
     cols = {} if cols is None else cols
@@ -1129,23 +1147,50 @@ def columns_of(path, cols=None):
 
 def main_ratios(a):
     """Per (integrator, N_x, theta_0, Re): the measured bounds over every run in the CSVs (absolute dt)
-    divided by parsph.limits' prediction now (ratios.csv)."""
+    divided by parsph.limits' prediction now (stability_ratios.csv); the settling column's runs (a file named
+    *settling*) as integrator 'settling'. With --auto: each column's dt = "auto" run, stable or not,
+    and its mean step (t / steps) over the prediction and over the largest measured stable dt."""
     cols = {}
     for path in a.ratios:
-        columns_of(path, cols)
+        if "settling" in os.path.basename(path):
+            for r in load_rows(path):
+                cols.setdefault(("settling", int(r["nx"]), round(float(r["theta0"]), 6), round(float(r["Re"]), 6)),
+                                []).append(r)
+        else:
+            columns_of(path, cols)
+    autos = {}
+    for r in load_rows(a.auto) if a.auto else []:
+        autos[(r["integrator"], int(r["nx"]), round(float(r["theta0"]), 6), round(float(r["Re"]), 6))] = r
     out = []
-    for (integ, nx, t, Re), rows in sorted(cols.items()):
-        k, h, lim, term, dt_ac = physics(t, Re, nx, integrator=integ)
+    for key, rows in sorted(cols.items()):
+        integ, nx, t, Re = key
+        if integ == "settling":
+            lim = settling_limits(t, nx)
+            term = min(lim, key=lim.get)
+            rows = sorted(rows, key=lambda r: float(r["dt"]))
+            for r in rows:
+                r["multiple"] = repr(float(r["dt"]) / lim[term])
+        else:
+            k, h, lim, term, dt_ac = physics(t, Re, nx, integrator=integ)
         lo, hi = measured_bounds(rows)
         p = lim[term]
-        out.append({"integrator": integ, "nx": nx, "theta0": t, "Re": Re, "term": term, "dt_pred": p,
-                    "stable_to": lo / p if lo else "", "fails_at": hi / p if hi else "", "runs": len(rows)})
+        row = {"integrator": integ, "nx": nx, "theta0": t, "Re": Re, "term": term, "dt_pred": p,
+               "stable_to": lo / p if lo else "", "fails_at": hi / p if hi else "", "runs": len(rows)}
+        au = autos.get(key)
+        if au:
+            dt_mean = float(au["t_done"]) / int(au["steps_done"])
+            row.update({"auto_stable": au["stable"], "auto_dt_mean": dt_mean, "auto_over_pred": dt_mean / p,
+                        "auto_over_stable": dt_mean / lo if lo else ""})
+        out.append(row)
         f = lambda v: f"{v:.3g}" if v != "" else "-"  # noqa: E731
-        print(f"{integ:8} {nx:4d} {t:5.2f} {Re:6g} {term:9} {p:9.3g}  {f(out[-1]['stable_to']):>6} .. "
-              f"{f(out[-1]['fails_at']):<6} ({len(rows)} runs)")
-    path = os.path.join(a.out, "ratios.csv")
+        extra = (f"  auto {'stable' if au['stable'] == '1' else 'UNSTABLE'} {f(row['auto_over_pred'])} x pred, "
+                 f"{f(row['auto_over_stable'])} x stable") if au else ""
+        print(f"{integ:8} {nx:4d} {t:5.2f} {Re:6g} {term:9} {p:9.3g}  {f(row['stable_to']):>6} .. "
+              f"{f(row['fails_at']):<6} ({len(rows)} runs){extra}")
+    path = os.path.join(a.out, "stability_ratios.csv")
+    fields = list(dict.fromkeys(k for r in out for k in r))
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, list(out[0]))
+        w = csv.DictWriter(f, fields)
         w.writeheader()
         w.writerows(out)
     print(f"wrote {path}")
