@@ -8,6 +8,13 @@
     .venv/bin/python scripts/stability_map.py --quick --out DIR    # a 12-run smoke test
     .venv/bin/python scripts/stability_map.py --scene settling [--refine]  # the granular column (gravity on)
     .venv/bin/python scripts/stability_map.py --damping --nx 200,400   # margin of the damping constant
+    .venv/bin/python scripts/stability_map.py --pred all --nx 200 --bracket --tol 1.1   # bracket every column
+                                                 # against parsph.limits' prediction, + one dt = "auto" run each
+    .venv/bin/python scripts/stability_map.py --pred all --nx 50 --auto-only   # auto only ("midpoint": its corner)
+    .venv/bin/python scripts/stability_map.py --scene settling --pred all      # auto in the settling columns
+    .venv/bin/python scripts/stability_map.py --longer 50:0.7:2000:40:20000    # one run of any length
+    .venv/bin/python scripts/stability_map.py --ratios CSV... [--auto AUTO_CSV]  # measured / predicted per column
+    .venv/bin/python scripts/stability_map.py --figures CSV...    # every figure against the prediction now
 
 Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
 ``parsph run`` drives) on ``MPI.COMM_SELF`` in this one process: the flow is
