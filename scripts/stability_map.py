@@ -681,6 +681,7 @@ def main(argv=None):
     ap.add_argument("--tol", type=float, default=1.25, help="with --bracket: bisect until failing / stable <= TOL")
     ap.add_argument("--auto-only", action="store_true", help="with --pred: only the dt = \"auto\" runs")
     ap.add_argument("--longer", default="", help="'nx:theta:Re:multiple:steps,...': single runs of any length")
+    ap.add_argument("--commits", nargs="*", default=[], help="with --ratios: only the runs made at these commits")
     ap.add_argument("--auto", default="", help="with --ratios: the dt = \"auto\" runs (stability_auto.csv)")
     ap.add_argument("--figures", nargs="*", default=None,
                     help="CSVs of runs (any prediction): redraw every figure against the prediction now")
@@ -1165,6 +1166,9 @@ def main_ratios(a):
                                 []).append(r)
         else:
             columns_of(path, cols)
+    if a.commits:   # only the runs made at these commits
+        cols = {k: [r for r in rows if r.get("commit") in a.commits] for k, rows in cols.items()}
+        cols = {k: rows for k, rows in cols.items() if rows}
     autos = {}
     for r in load_rows(a.auto) if a.auto else []:
         autos[(r["integrator"], int(r["nx"]), round(float(r["theta0"]), 6), round(float(r["Re"]), 6))] = r
