@@ -148,9 +148,7 @@ def _warm_up(comm, raw):
 
 
 def _converge(comm, args, signals):
-    from argparse import Namespace
     from . import config
-    from .solver import GuardError
     root = comm.rank == 0
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = args.out or os.path.join("out", stem + "_converge")
@@ -164,58 +162,28 @@ def _converge(comm, args, signals):
 
     results = []
     for fam, levels in plan:
-        warm = False
+        warm = [False]
         runs = []
         for l, (nx, lr) in enumerate(levels):
-            ldir = os.path.join(out_dir, fam, f"nx{nx}")
-            # the header names no level index, so a study from another base N_x can reuse this level
-            text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + config.dumps(lr)
-            rec = comm.bcast(_reusable(ldir, text) if root else None, root=0)
-            if rec is None:
-                if not warm:
-                    try:  # a coarse level too small for the rank count is bad input on every rank alike
-                        _agree(comm, lambda: _warm_up(comm, levels[0][1]))
-                    except GuardError as e:  # raised on every rank alike
-                        say(f"parsph converge: N_x = {levels[0][0]} ({fam}) is unstable: {e}")
-                        return EXIT_GUARD
-                    warm = True
-                path = os.path.join(ldir, stem + ".toml")
-
-                def write():
-                    if root:
-                        try:
-                            os.makedirs(ldir, exist_ok=True)
-                            with open(path, "w") as f:
-                                f.write(text)
-                        except OSError as e:
-                            raise UsageError(f"cannot write {path}: {e.strerror}") from None
-                _agree(comm, write)
-                comm.Barrier()
-                say(f"parsph converge: family {fam}, level {l + 1}/{len(levels)}: N_x = {nx}")
-                timed = {}
-
-                def wrap(out):
-                    timed["t"] = _TimedOutput(out)
-                    return timed["t"]
-                largs = Namespace(config=path, set=None, out=ldir, force=args.force, restart=None,
-                                  quiet=True, threads=args.threads, wrap_output=wrap)
-                code = _run_reporting(comm, largs, say, signals)
-                if code != 0:
-                    say(f"parsph converge: level N_x = {nx} ({fam}) ended with exit code {code}; stopping")
-                    return code
-                r = np.array(timed["t"].records, dtype=float)
-                cpu = np.zeros(len(r))
-                comm.Allreduce(np.ascontiguousarray(r[:, 2]), cpu)
-                rec = {"family": fam, "level": l, "Nx": nx, "dir": ldir, "run_file": text,
-                       "particles": int(r[0, 3]), "time": r[:, 0].tolist(), "steps": r[:, 1].astype(int).tolist(),
-                       "cpu_s": cpu.tolist(), "ranks": comm.size, "threads": args.threads}
-                if root:
-                    with open(os.path.join(ldir, "level.json"), "w") as f:
-                        json.dump(rec, f, indent=1)
-            else:
-                say(f"parsph converge: family {fam}, level {l + 1}/{len(levels)}: N_x = {nx}, reusing {ldir}")
+            rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr,
+                         f"level {l + 1}/{len(levels)}", os.path.join(out_dir, fam, f"nx{nx}"))
+            if not isinstance(rec, dict):
+                return rec
+            rec["level"] = l
             runs.append(rec)
-        results.append((fam, runs))
+        nx0, raw0 = levels[0]
+        b = _agree(comm, lambda: bias_of(raw0))
+        bias_rec = None
+        if b is not None and abs(b) > BIAS_MIN:
+            # the coarsest level again with k / (1 + b): its difference from the coarsest level is the
+            # effect of the kernel's viscosity bias, which every level shares and no difference shows
+            braw = bias_raw(raw0, b)
+            bias_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx0, braw,
+                              f"bias run (k / (1 + b), b = {b:+.2e})", os.path.join(out_dir, fam, f"nx{nx0}_bias"))
+            if not isinstance(bias_rec, dict):
+                return bias_rec
+            bias_rec["bias"] = b
+        results.append((fam, runs, bias_rec))
     code = 0
     if root:  # files only; the other ranks wait for its exit code, so a failure here cannot hang them
         try:
@@ -230,6 +198,82 @@ def _converge(comm, args, signals):
             print(f"parsph: error: cannot analyse the levels in {out_dir}: {e}", file=sys.stderr, flush=True)
             code = EXIT_ERROR
     return comm.bcast(code, root=0)
+
+
+def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, what, ldir):
+    """Run one level (or reuse it): its record, or an exit code."""
+    from argparse import Namespace
+    from . import config
+    from .solver import GuardError
+    root = comm.rank == 0
+    # the header names no level index, so a study from another base N_x can reuse this level
+    text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + config.dumps(lr)
+    rec = comm.bcast(_reusable(ldir, text) if root else None, root=0)
+    if rec is not None:
+        say(f"parsph converge: family {fam}, {what}: N_x = {nx}, reusing {ldir}")
+        return rec
+    if not warm[0]:
+        try:  # a coarse level too small for the rank count is bad input on every rank alike
+            _agree(comm, lambda: _warm_up(comm, levels[0][1]))
+        except GuardError as e:  # raised on every rank alike
+            say(f"parsph converge: N_x = {levels[0][0]} ({fam}) is unstable: {e}")
+            return EXIT_GUARD
+        warm[0] = True
+    path = os.path.join(ldir, stem + ".toml")
+
+    def write():
+        if root:
+            try:
+                os.makedirs(ldir, exist_ok=True)
+                with open(path, "w") as f:
+                    f.write(text)
+            except OSError as e:
+                raise UsageError(f"cannot write {path}: {e.strerror}") from None
+    _agree(comm, write)
+    comm.Barrier()
+    say(f"parsph converge: family {fam}, {what}: N_x = {nx}")
+    timed = {}
+
+    def wrap(out):
+        timed["t"] = _TimedOutput(out)
+        return timed["t"]
+    largs = Namespace(config=path, set=None, out=ldir, force=args.force, restart=None,
+                      quiet=True, threads=args.threads, wrap_output=wrap)
+    code = _run_reporting(comm, largs, say, signals)
+    if code != 0:
+        say(f"parsph converge: N_x = {nx} ({fam}, {what}) ended with exit code {code}; stopping")
+        return code
+    r = np.array(timed["t"].records, dtype=float)
+    cpu = np.zeros(len(r))
+    comm.Allreduce(np.ascontiguousarray(r[:, 2]), cpu)
+    rec = {"family": fam, "Nx": nx, "dir": ldir, "run_file": text,
+           "particles": int(r[0, 3]), "time": r[:, 0].tolist(), "steps": r[:, 1].astype(int).tolist(),
+           "cpu_s": cpu.tolist(), "ranks": comm.size, "threads": args.threads}
+    if root:
+        with open(os.path.join(ldir, "level.json"), "w") as f:
+            json.dump(rec, f, indent=1)
+    return rec
+
+
+BIAS_MIN = 1e-6  # |b| below this: no bias run (its effect is below any error measured here)
+
+
+def bias_of(raw):
+    """b in nu_eff = (1 + b) nu for a run file's kernel and h/dx (None where it is not computed: 3-D,
+    or a scene without viscosity)."""
+    from . import config
+    cfg = config.build(raw, config.dumps(raw))
+    if cfg.k == 0 or not cfg.viscosity:
+        return None
+    return convergence.kernel_bias(cfg.kernel, cfg.h / cfg.dx, cfg.dim)
+
+
+def bias_raw(raw, b):
+    """The run file with the viscosity k / (1 + b): on a lattice whose operator gives (1 + b) k, the
+    flow of viscosity k."""
+    out = {s: dict(v) if isinstance(v, dict) else v for s, v in raw.items()}
+    out["material"]["k"] = float(out["material"]["k"]) / (1.0 + b)
+    return out
 
 
 def _reusable(ldir, text):
@@ -249,8 +293,11 @@ def analyse(results, ratio, target=None):
     from .output import read_profile
     from .scenes import error_scale
     fams = []
-    for fam, runs in results:
+    for item in results:
+        fam, runs = item[0], item[1]
+        bias_rec = item[2] if len(item) > 2 else None
         profs = [read_profile(r["dir"]) for r in runs]
+        bprof = read_profile(bias_rec["dir"]) if bias_rec is not None else None
         cfg = config.loads(profs[0]["attrs"]["run_file"])
         field = cfg.scene.error_field
         period = None if cfg.scene.walls else cfg.L
@@ -262,7 +309,8 @@ def analyse(results, ratio, target=None):
             scale = error_scale(cfg, t)
             on_coarse = [profs[0][field][i]] + [convergence.to_coarse(p["x"], p[field][i], xc, period)
                                                 for p in profs[1:]]
-            est = convergence.estimate(on_coarse, ratio, scale)
+            bias = None if bprof is None else np.asarray(bprof[field][i]) - np.asarray(profs[0][field][i])
+            est = convergence.estimate(on_coarse, ratio, scale, bias=bias)
             row = {"t": t, "scale": scale, "estimate": est.as_dict(),
                    "cpu_s": [r["cpu_s"][i] for r in runs], "steps": [r["steps"][i] for r in runs]}
             if cfg.scene.reference is not None and field in cfg.scene.reference(cfg, xc[:1], t):
@@ -278,7 +326,8 @@ def analyse(results, ratio, target=None):
         cautions = convergence.times_caution([r["estimate"]["order"] for r in times if r["estimate"]["asymptotic"]])
         fam_rep = {"family": fam, "scene": cfg.scene.name, "field": field, "Nx": nxs,
                    "particles": [r["particles"] for r in runs], "levels": runs, "times": times,
-                   "caution": cautions}
+                   "caution": cautions, "bias": None if bias_rec is None else bias_rec["bias"],
+                   "bias_run": bias_rec}
         if target is not None:
             need, why = convergence.predict_nx(nxs, [(r["t"], r["_est"]) for r in times], target)
             fam_rep["target"] = {"Nx": need, "why_not": why}
@@ -300,9 +349,16 @@ def _fmt(v, spec=".2e"):
 
 def print_report(rep):
     for fam in rep["families"]:
+        if fam.get("bias") is None:
+            bias_note = "no bias run (3-D, or no viscosity): an error every level shares is not estimated"
+        else:
+            bias_note = (f"kernel bias b = {fam['bias']:+.2e} (nu_eff = (1 + b) nu, parsph.kernel_analysis), its "
+                         f"effect from one run of N_x = {fam['Nx'][0]} with k / (1 + b), "
+                         f"{fam['bias_run']['cpu_s'][-1]:.3g} CPU s")
         print(f"\nconverge: scene {fam['scene']}, family {fam['family']}, N_x = "
               f"{', '.join(map(str, fam['Nx']))} (ratio {rep['ratio']}); errors of "
-              f"{fam['field']} on the N_x = {fam['Nx'][0]} bins, relative to the scale given per time")
+              f"{fam['field']} on the N_x = {fam['Nx'][0]} bins, relative to the scale given per time; "
+              + bias_note)
         for row in fam["times"]:
             e = row["estimate"]
             state = "asymptotic" if e["asymptotic"] else "NOT asymptotic: " + "; ".join(e["reasons"])
@@ -311,6 +367,11 @@ def print_report(rep):
             bins = "" if nb == fam["Nx"][0] else f"; {nb} of {fam['Nx'][0]} bins have data in every level"
             print(f"t = {row['t']:g} s, scale {row['scale']:.4g}{bins}: observed order {orders or '-'}"
                   f" (shape residual {', '.join(_fmt(s, '.2f') for s in e['shapes']) or '-'}); {state}")
+            if e.get("bias_max") is not None:
+                rich = e.get("richardson_max")
+                print(f"  the kernel's viscosity bias (b = {fam['bias']:+.2e}) moves the limit by up to "
+                      f"{e['bias_max']:.2e}" + (f"; Richardson alone would give {_fmt(rich[-1])} for the finest level"
+                                               if rich else ""))
             has_true = "true_max" in row
             print(f"{'N_x':>6} {'particles':>10} {'steps':>7} {'CPU s':>9} {'|f-f_coarser|':>13} "
                   f"{'est. max err':>12}" + (f" {'true max err':>12} {'ratio':>6} {'check err':>10}" if has_true else ""))
@@ -326,8 +387,9 @@ def print_report(rep):
         if fam["caution"]:
             print("caution: " + fam["caution"])
         if len(fam["Nx"]) == 3 and any(r["estimate"]["asymptotic"] for r in fam["times"]):
-            print("note: three levels give one order and cannot check it; an error that every level shares "
-                  "(the kernel's bias at fixed h/dx) is invisible to them; --levels 4 checks the order")
+            print("note: three levels give one order and cannot check it; --levels 4 checks the order"
+                  + ("" if fam.get("bias") is not None else "; an error that every level shares (the kernel's "
+                     "bias at fixed h/dx) is invisible to them"))
         if "target" in fam:
             t = fam["target"]
             if t["Nx"] is None:
