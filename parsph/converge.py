@@ -60,20 +60,41 @@ def _family_raw(raw, family):
     return raw
 
 
-def level_raw(raw, nx):
-    """Level N_x of a raw run file: h / dx kept, a fixed dt scaled with the stability limit."""
+DT_SCALINGS = ("limit", "dx2")
+
+
+def level_raw(raw, nx, dt_scaling="limit"):
+    """Level N_x of a raw run file: h / dx kept, dt by ``dt_scaling``.
+
+    ``"limit"``: ``dt = "auto"`` kept (each level at its own stability limit, times the
+    run file's dt_safety), a fixed dt scaled with the limit (its margin kept). Cheapest,
+    but the binding limit can change between levels (advection ~ dx, damping ~ 1,
+    viscous ~ dx^2), so the first-order time error of Eqs. (6)-(7) is then not one
+    power of dx across them. ``"dx2"``: dt_l = dt_0 (N_x0 / N_x)^2 from the base level's
+    (its automatic dt at theta_0 for "auto", kept automatic with the dt_safety that gives
+    dt_l at theta_0, so it still follows the state), so the time error falls as dx^2 at
+    every level; every limit shrinks at most as dx^2, so dt_l stays within them.
+    """
     from . import config
+    if dt_scaling not in DT_SCALINGS:
+        raise ValueError(f"dt_scaling {dt_scaling!r}: one of {DT_SCALINGS}")
     base = config.build(raw, config.dumps(raw))
     out = {s: dict(v) if isinstance(v, dict) else v for s, v in raw.items()}
     num = out["numerics"]
     num["Nx"] = int(nx)
     if num.get("h") is not None:
         num["h"] = base.h * base.Nx / nx
-    if num.get("dt") != "auto":
-        probe = {s: dict(v) if isinstance(v, dict) else v for s, v in out.items()}
-        probe["numerics"]["dt"] = "auto"
-        lim = config.build(probe, config.dumps(probe)).limits
-        num["dt"] = float(base.dt) * min(lim.values()) / min(base.limits.values())
+    probe = {s: dict(v) if isinstance(v, dict) else v for s, v in out.items()}
+    probe["numerics"]["dt"] = "auto"
+    lim = min(config.build(probe, config.dumps(probe)).limits.values())
+    if dt_scaling == "dx2":
+        dt = float(base.dt) * (base.Nx / nx) ** 2
+        if num.get("dt") == "auto":
+            num["dt_safety"] = min(1.0, dt / lim)
+        else:
+            num["dt"] = dt
+    elif num.get("dt") != "auto":
+        num["dt"] = float(base.dt) * lim / min(base.limits.values())
     out.setdefault("output", {})["snapshots"] = False
     return out
 
@@ -111,7 +132,9 @@ def _plan(args):
         try:
             # the family's base level validated first: its errors name the run file's keys
             nx0 = config.build(fraw, config.dumps(fraw)).Nx
-            levels = [(nx0 * args.ratio ** l, level_raw(fraw, nx0 * args.ratio ** l)) for l in range(args.levels)]
+            scaling = getattr(args, "dt_scaling", None) or "dx2"
+            levels = [(nx0 * args.ratio ** l, level_raw(fraw, nx0 * args.ratio ** l, scaling))
+                      for l in range(args.levels)]
             for nx, lr in levels:
                 cfg = config.build(lr, config.dumps(lr))
         except config.ConfigError as e:
@@ -187,7 +210,7 @@ def _converge(comm, args, signals):
     code = 0
     if root:  # files only; the other ranks wait for its exit code, so a failure here cannot hang them
         try:
-            report = analyse(results, args.ratio, args.target)
+            report = analyse(results, args.ratio, args.target, getattr(args, "dt_scaling", None) or "dx2")
             print_report(report)
             with open(os.path.join(out_dir, "converge.json"), "w") as f:
                 json.dump(_jsonable(report), f, indent=1)
@@ -211,6 +234,7 @@ def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, w
     rec = comm.bcast(_reusable(ldir, text) if root else None, root=0)
     if rec is not None:
         say(f"parsph converge: family {fam}, {what}: N_x = {nx}, reusing {ldir}")
+        rec["dir"] = ldir  # the study may have been moved since
         return rec
     if not warm[0]:
         try:  # a coarse level too small for the rank count is bad input on every rank alike
@@ -287,7 +311,7 @@ def _reusable(ldir, text):
 
 
 # ---- analysis (rank 0, files only) -----------------------------------------------
-def analyse(results, ratio, target=None):
+def analyse(results, ratio, target=None, dt_scaling="limit"):
     """Estimates per family and output time from the levels' outputs; the --target choice."""
     from . import config
     from .output import read_profile
@@ -334,8 +358,12 @@ def analyse(results, ratio, target=None):
             if need is not None:
                 cost, a = convergence.cost_at(need, nxs, [r["cpu_s"][-1] for r in runs])
                 fam_rep["target"].update(cpu_s=cost, cost_exponent=a, to_time=times[-1]["t"])
+                if dt_scaling == "dx2":  # the errors were measured with dt ~ dx^2: the setting needs that dt
+                    lr = level_raw(tomllib.loads(runs[0]["run_file"]), need, "dx2")["numerics"]
+                    fam_rep["target"]["set"] = (f"numerics.dt_safety={lr['dt_safety']:.4g}" if lr["dt"] == "auto"
+                                                else f"numerics.dt={lr['dt']:.4g}")
         fams.append(fam_rep)
-    report = {"ratio": ratio, "target": target, "families": fams}
+    report = {"ratio": ratio, "target": target, "families": fams, "dt_scaling": dt_scaling}
     if target is not None:
         ok = [f for f in fams if f["target"]["Nx"] is not None]
         best = min(ok, key=lambda f: f["target"]["cpu_s"]) if ok else None
@@ -404,7 +432,8 @@ def print_report(rep):
             print(f"--target {rep['target']:g}: no family has estimates to stand behind; refine (more --levels) "
                   f"or try another --family")
         else:
-            print(f"--target {rep['target']:g}: cheapest: family {c['family']}, numerics.Nx = {c['Nx']} "
+            extra = f", {c['set']}" if c.get("set") else ""
+            print(f"--target {rep['target']:g}: cheapest: family {c['family']}, numerics.Nx = {c['Nx']}{extra} "
                   f"(about {c['cpu_s']:.3g} CPU s)")
 
 

@@ -269,11 +269,12 @@ def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
     from parsph.analytic import couette_velocity
     from parsph.output import read_profile
     out = tmp_path / "cv"
-    # a quarter of the stability limit: at the full limit the first-order time error of Eqs. (6)-(7)
-    # is not a power of dx across the levels (the binding limit changes from advection to viscous)
+    # the default dt scaling (dt ~ dx^2 from the coarsest level's limit): the first-order time error of
+    # Eqs. (6)-(7) then falls as dx^2 like the kernel's (each level at its own limit, it would not: the
+    # binding limit changes from advection ~ dx to viscous ~ dx^2 across these levels)
     rc, so, se = cli("converge", "run/couette_fast.toml", "--family", "accurate", "--out", out,
                      "--set", "output.t_end=0.02", "--set", "output.times=[0.01, 0.02]", "--target", "2e-3",
-                     "--set", "numerics.dt_safety=0.25", timeout=900)
+                     timeout=900)
     assert rc == 0, se
     rep = json.loads((out / "converge.json").read_text())
     assert (out / "converge.png").stat().st_size > 1000
@@ -301,13 +302,15 @@ def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
     assert fam["particles"] == [(12 + 10) * 12, (24 + 10) * 24, (48 + 10) * 48]  # 5 wall layers a side
     choice = rep["choice"]
     assert choice["family"] == "accurate" and 24 < choice["Nx"] <= 96
-    assert "numerics.Nx = " in so
+    assert "numerics.Nx = " in so and "numerics.dt_safety=" in choice["set"]
+    # the bias run: the coarsest level with k / (1 + b), b from the lattice sums of Wendland C2 at 2.5 dx
+    assert fam["bias"] == pytest.approx(cv.kernel_bias("wendland_c2", 2.5), rel=1e-12) and fam["bias"] < 0
+    assert (out / "accurate" / "nx12_bias" / "couette_fast.toml").read_text().count("k = 1.0002")
     # each level is an ordinary run file, and a second call reuses the levels
     assert (out / "accurate" / "nx24" / "couette_fast.toml").exists()
     rc, so, se = cli("converge", "run/couette_fast.toml", "--family", "accurate", "--out", out,
-                     "--set", "output.t_end=0.02", "--set", "output.times=[0.01, 0.02]",
-                     "--set", "numerics.dt_safety=0.25", timeout=300)
-    assert rc == 0 and so.count("reusing") == 3, so + se
+                     "--set", "output.t_end=0.02", "--set", "output.times=[0.01, 0.02]", timeout=300)
+    assert rc == 0 and so.count("reusing") == 4, so + se  # three levels and the bias run
 
 
 @pytest.mark.parametrize("args, words", [
