@@ -183,6 +183,7 @@ def _converge(comm, args, signals):
         if root:
             print(msg, flush=True)
 
+    scaling = getattr(args, "dt_scaling", None) or "dx2"
     results = []
     for fam, levels in plan:
         warm = [False]
@@ -206,7 +207,19 @@ def _converge(comm, args, signals):
             if not isinstance(bias_rec, dict):
                 return bias_rec
             bias_rec["bias"] = b
-        results.append((fam, runs, bias_rec))
+        time_rec = None
+        nxf, rawf = levels[-1]
+        s0 = raw0["numerics"].get("dt_safety", 1.0)
+        if scaling == "dx2" and rawf["numerics"].get("dt") == "auto" and rawf["numerics"]["dt_safety"] < s0 * (1 - 1e-6):
+            # the finest level again at the base level's margin below its own limit: the difference is the
+            # time error's share, which --target uses to trade a larger dt against a finer N_x
+            traw = {s: dict(v) if isinstance(v, dict) else v for s, v in rawf.items()}
+            traw["numerics"]["dt_safety"] = s0
+            time_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nxf, traw,
+                              f"time-step run (dt_safety {s0:g})", os.path.join(out_dir, fam, f"nx{nxf}_dtlimit"))
+            if not isinstance(time_rec, dict):
+                return time_rec
+        results.append((fam, runs, bias_rec, time_rec))
     code = 0
     if root:  # files only; the other ranks wait for its exit code, so a failure here cannot hang them
         try:
@@ -320,8 +333,13 @@ def analyse(results, ratio, target=None, dt_scaling="limit"):
     for item in results:
         fam, runs = item[0], item[1]
         bias_rec = item[2] if len(item) > 2 else None
+        time_rec = item[3] if len(item) > 3 else None
         profs = [read_profile(r["dir"]) for r in runs]
         bprof = read_profile(bias_rec["dir"]) if bias_rec is not None else None
+        tprof = read_profile(time_rec["dir"]) if time_rec is not None else None
+        if tprof is not None:
+            dt_fine = config.loads(runs[-1]["run_file"]).dt
+            dt_lim = config.loads(time_rec["run_file"]).dt
         cfg = config.loads(profs[0]["attrs"]["run_file"])
         field = cfg.scene.error_field
         period = None if cfg.scene.walls else cfg.L
@@ -345,6 +363,12 @@ def analyse(results, ratio, target=None, dt_scaling="limit"):
                 # each level on its own bins, as `parsph check` reports it
                 row["check_max"] = [float(np.nanmax(np.abs(p[field][i] - p[field + "_exact"][i])) / scale)
                                     for p in profs]
+            if tprof is not None:
+                pf = profs[-1]
+                dT = (convergence.to_coarse(pf["x"], tprof[field][i], xc, period)
+                      - convergence.to_coarse(pf["x"], pf[field][i], xc, period)) / scale
+                row["time_effect_max"] = float(np.nanmax(np.abs(dT)))
+                row["_T"] = dT[est._ok] / (dt_lim - dt_fine)
             row["_est"] = est
             times.append(row)
         cautions = convergence.times_caution([r["estimate"]["order"] for r in times if r["estimate"]["asymptotic"]])
@@ -352,7 +376,28 @@ def analyse(results, ratio, target=None, dt_scaling="limit"):
                    "particles": [r["particles"] for r in runs], "levels": runs, "times": times,
                    "caution": cautions, "bias": None if bias_rec is None else bias_rec["bias"],
                    "bias_run": bias_rec}
-        if target is not None:
+        fam_rep["time_run"] = time_rec
+        if target is not None and time_rec is not None:
+            cfgs = [config.loads(r["run_file"]) for r in runs]
+            s0 = cfgs[0].values["numerics"]["dt_safety"]  # the base level's margin below its limit
+            measured = [(n, c.limits) for n, c in zip(nxs, cfgs)]
+            costs = [r["cpu_s"][-1] for r in runs]
+
+            def dt_limit(n):
+                lim = convergence.limit_at(n, measured)
+                return None if lim is None else s0 * lim
+            best = convergence.predict_setting(
+                nxs, [(r["t"], r["_est"], r["_T"]) for r in times], target, (dt_fine, dt_limit),
+                lambda n: convergence.cost_at(n, nxs, costs)[0])
+            if best[0] is None:
+                fam_rep["target"] = {"Nx": None, "why_not": best[1]}
+            else:
+                n, dt, lim, err, cost = best
+                safety = s0 * dt / lim
+                fam_rep["target"] = {"Nx": n, "why_not": None, "cpu_s": cost, "predicted_err": err,
+                                     "cost_exponent": convergence.cost_at(n, nxs, costs)[1],
+                                     "to_time": times[-1]["t"], "set": f"numerics.dt_safety={safety:.4g}"}
+        elif target is not None:
             need, why = convergence.predict_nx(nxs, [(r["t"], r["_est"]) for r in times], target)
             fam_rep["target"] = {"Nx": need, "why_not": why}
             if need is not None:
@@ -423,8 +468,11 @@ def print_report(rep):
             if t["Nx"] is None:
                 print(f"--target {rep['target']:g}: no prediction for family {fam['family']}: {t['why_not']}")
             else:
-                print(f"--target {rep['target']:g}: family {fam['family']}: N_x = {t['Nx']} predicted to meet it "
-                      f"at every output time, about {t['cpu_s']:.3g} CPU s to t = {t['to_time']:g} s "
+                how = (f" with {t['set']}" if t.get("set") else "") + (
+                    f" (predicted max error {t['predicted_err']:.2e}; the time error's share from the run of "
+                    f"N_x = {fam['Nx'][-1]} at its limit)" if t.get("predicted_err") is not None else "")
+                print(f"--target {rep['target']:g}: family {fam['family']}: N_x = {t['Nx']}{how} predicted to meet "
+                      f"it at every output time, about {t['cpu_s']:.3g} CPU s to t = {t['to_time']:g} s "
                       f"(cost ~ N_x^{t['cost_exponent']:.2f})")
     if rep.get("target") is not None:
         c = rep["choice"]

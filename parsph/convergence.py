@@ -95,6 +95,9 @@ class Estimate:
     bins: int = 0                  # bins compared (finite in every level)
     bias_max: float = None         # max |B| / scale: the kernel's viscosity bias's effect (None: not given)
     richardson_max: list = None    # max |f_l - f_inf| / scale: the estimate without the bias
+    _ok: object = None             # the bins used (mask over the given ones)
+    _rich: object = None           # (f_finest - f_inf) / scale on those bins
+    _bias: object = None           # B / scale on those bins
 
     def as_dict(self):
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -133,7 +136,8 @@ def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TO
     L = F.shape[0]
     D = np.diff(F, axis=0)
     est = Estimate(diff_max=[float(np.max(np.abs(d), initial=0.0)) for d in D],
-                   diff_rms=[float(np.sqrt(np.mean(d * d))) if d.size else 0.0 for d in D], bins=int(ok.sum()))
+                   diff_rms=[float(np.sqrt(np.mean(d * d))) if d.size else 0.0 for d in D], bins=int(ok.sum()),
+                   _ok=ok, _bias=B)
     if bias is not None:
         est.bias_max = float(np.max(np.abs(B), initial=0.0))
     if F.shape[1] == 0:
@@ -176,6 +180,7 @@ def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TO
 def _errors(est, F, f_inf, B):
     """Each level's error against the limit f_inf + B, and against f_inf alone (Richardson)."""
     L = F.shape[0]
+    est._rich = F[-1] - f_inf
     est.richardson_max = [float(np.max(np.abs(F[l] - f_inf))) for l in range(L)]
     est.err_max = [float(np.max(np.abs(F[l] - f_inf - B))) for l in range(L)]
     est.err_rms = [float(np.sqrt(np.mean((F[l] - f_inf - B) ** 2))) for l in range(L)]
@@ -246,3 +251,67 @@ def predict_nx(levels_nx, estimates, target):
             n_t = math.ceil(levels_nx[-1] * (e / target_t) ** (1.0 / est.order) - 1e-9)
         need = max(need, n_t)
     return need, None
+
+
+# how each stability limit scales with dx at fixed h/dx (parsph.limits): advection 0.5 h / v, the
+# von Neumann limits 2 gamma / omega^2 (damping, independent of dx), 2 / gamma (viscous) and the
+# RK2 acoustic one (~ h / c), the body-force limit 0.25 sqrt(h / a)
+LIMIT_POWERS = {"advection": 1.0, "damping": 0.0, "viscous": 2.0, "acoustic": 1.0, "force": 0.5}
+
+
+def limit_at(nx, measured):
+    """The stability limit at N_x, scaled from the limits of the levels run, [(N_x, limits)], each term
+    with its power of dx (the smallest over levels and terms; None if a term's scaling is unknown).
+    A level names only the smaller of its two von Neumann terms, so coarse and fine levels together
+    give both."""
+    out = math.inf
+    for n0, limits in measured:
+        for k, v in limits.items():
+            if not math.isfinite(v):
+                continue
+            if k not in LIMIT_POWERS:
+                return None
+            out = min(out, v * (n0 / nx) ** LIMIT_POWERS[k])
+    return out
+
+
+def predict_setting(levels_nx, estimates, target, time_model, cost_of, max_factor=4, fractions=(0, 0.25, 0.5, 0.75, 1)):
+    """The cheapest (N_x, dt) predicted to meet ``target`` at every output time, from levels run with
+    dt ~ dx^2 and one run of the finest level at its stability limit. Returns (N_x, dt, dt_limit,
+    predicted error, cost) or (None, why).
+
+    ``estimates``: [(t, Estimate, T)], T(x) = (f(finest, dt_lim) - f(finest, dt_fine)) / scale / (dt_lim -
+    dt_fine) on the estimate's bins: the first-order time error per second of dt, measured.
+    ``time_model``: (dt_fine, dt_limit(N)): the finest level's dt and the limit at N.
+    ``cost_of(N)``: the cost at N with dt ~ dx^2 (the levels' scaling); a step costs the same at any dt,
+    so the cost at dt is cost_of(N) dt_dx2(N) / dt.
+
+    The error of level N at dt is modelled bin by bin as
+    R(x) (N_fine / N)^p - B(x) + T(x) (dt - dt_dx2(N)), R the finest level's Richardson error,
+    B the bias effect, dt_dx2(N) = dt_fine (N_fine / N)^2, dt between dt_dx2(N) and the limit.
+    """
+    dt_fine, dt_limit = time_model
+    nf = levels_nx[-1]
+    for t, est, _ in estimates:
+        if not est.asymptotic or est._rich is None or est.order == math.inf:
+            return None, f"t = {t:g} s: no trustworthy estimate ({'; '.join(est.reasons) or 'not asymptotic'})"
+    best = None
+    for n in range(levels_nx[0], max_factor * nf + 1):
+        lim = dt_limit(n)
+        d2 = dt_fine * (nf / n) ** 2
+        if lim is None or not d2 <= lim * (1 + 1e-9):
+            continue
+        for u in fractions:
+            dt = d2 + u * (lim - d2)
+            err = 0.0
+            for t, est, T in estimates:
+                b = est._bias if est._bias is not None else 0.0
+                e = est._rich * (nf / n) ** est.order - b + T * (dt - d2)
+                err = max(err, float(np.max(np.abs(e))))
+            if err <= target:
+                cost = cost_of(n) * d2 / dt
+                if best is None or cost < best[4]:
+                    best = (n, dt, lim, err, cost)
+    if best is None:
+        return None, f"no N_x up to {max_factor * nf} is predicted to meet {target:g}"
+    return best

@@ -246,6 +246,43 @@ def test_predict_nx_with_a_bias_floor():
     assert need is None and "bias" in why
 
 
+def test_predict_setting_trades_dt_against_nx_on_a_known_space_time_error():
+    """f(N, dt) = exact + A(x) h^2 + C(x) dt with C of the opposite sign where A is largest
+    (the cancellation Eqs. (6)-(7) show at the full limit). Levels at dt ~ dx^2, one run of
+    the finest level at its limit; the chosen (N, dt) meets the target under the true model,
+    is within 25 % of the cost of the cheapest (N, dt) that a brute-force search over the
+    same grid finds with the true model, and is cheaper than refining at dt ~ dx^2 alone."""
+    n0, nf = 12, 48
+    xc = centres(n0)
+    A = lambda x: 2.0 * shape(x)                       # space: A (h/L)^2 ... in units of the scale
+    C = lambda x: -5.0 * np.cos(2.0 * x / L)           # time: per second of dt
+    lim = lambda n: 1e-3 * (n0 / n)                    # an advection-like limit ~ dx
+    dt0 = lim(n0)
+    dt2 = lambda n: dt0 * (n0 / n) ** 2
+
+    def model(n, dt):
+        x = centres(n)
+        f = exact(x) + A(x) * (1.0 / n) ** 2 + C(x) * dt
+        return f if n == n0 else cv.to_coarse(x, f, xc)
+    on_coarse = [model(n, dt2(n)) for n in (12, 24, 48)]
+    est = cv.estimate(on_coarse, 2)
+    assert est.asymptotic and est.order == pytest.approx(2.0, abs=0.05)
+    T = (model(nf, lim(nf)) - model(nf, dt2(nf)))[est._ok] / (lim(nf) - dt2(nf))
+    cost_dx2 = lambda n: (n / n0) ** 4                  # particles ~ N^2, steps ~ N^2 at dt ~ dx^2
+    target = 2e-3
+    n, dt, lm, err, cost = cv.predict_setting([12, 24, 48], [(0.05, est, T)], target, (dt2(nf), lim), cost_dx2)
+    true_err = lambda n, dt: float(np.max(np.abs(model(n, dt) - exact(xc))))
+    assert true_err(n, dt) <= target * 1.05 and err == pytest.approx(true_err(n, dt), rel=0.05)
+    brute = min(cost_dx2(m) * dt2(m) / d for m in range(12, 193) for u in (0, 0.25, 0.5, 0.75, 1)
+                for d in [dt2(m) + u * (lim(m) - dt2(m))] if true_err(m, d) <= target)
+    assert cost <= 1.25 * brute  # the model is within 5 % of the truth, which moves the edge a grid step
+    need, _ = cv.predict_nx([12, 24, 48], [(0.05, est)], target)
+    assert cost < cost_dx2(need)
+    assert cv.limit_at(96, [(12, {"damping": 1e-3, "advection": 5e-4, "force": math.inf}),
+                            (48, {"viscous": 2e-4})]) == pytest.approx(5e-5)
+    assert cv.limit_at(24, [(12, {"unknown": 1.0})]) is None
+
+
 def test_kernel_bias_vanishes_as_the_lattice_sum_becomes_the_integral():
     """The lattice sum of the Morris operator tends to its continuum value 1 as h/dx grows
     (independent of parsph: the kernel's second moment is normalised to that); at the
@@ -310,7 +347,7 @@ def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
     assert (out / "accurate" / "nx24" / "couette_fast.toml").exists()
     rc, so, se = cli("converge", "run/couette_fast.toml", "--family", "accurate", "--out", out,
                      "--set", "output.t_end=0.02", "--set", "output.times=[0.01, 0.02]", timeout=300)
-    assert rc == 0 and so.count("reusing") == 4, so + se  # three levels and the bias run
+    assert rc == 0 and so.count("reusing") == 5, so + se  # three levels, the bias run, the time-step run
 
 
 @pytest.mark.parametrize("args, words", [
