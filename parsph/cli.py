@@ -2,7 +2,7 @@
 
     parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
     parsph check OUTPUT [--tol 0.02]
-    parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...]
+    parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
     parsph plot OUTPUT [--png FILE]
 
 Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;

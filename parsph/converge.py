@@ -1,16 +1,23 @@
 """``parsph converge``: run a scene at several resolutions and estimate each one's error.
 
     [mpirun -n P] parsph converge CONFIG [--levels L] [--ratio R] [--target ERR] [--out DIR]
-                                 [--family NAME ...] [--set S.K=V ...] [--force] [--threads N]
+                                 [--family NAME ...] [--dt-scaling dx2|limit] [--set S.K=V ...]
+                                 [--force] [--threads N]
 
 Level l of a family is the run file with N_x R^l particles across (h / dx
-fixed; a fixed dt scaled with the stability limits, ``"auto"`` kept), written
-as an ordinary run file DIR/<family>/nx<N_x>/<name>.toml and run by the same
-code as ``parsph run``, on the same communicator, one level after another,
-without particle snapshots. The estimates are ``parsph.convergence``'s;
-the cost of a level is the process CPU time of its time loop summed over
-ranks, up to each output time. A level whose ``level.json`` records the same
-run file is reused, so a stopped study resumes.
+fixed; dt ~ dx^2 from the coarsest level's, or each level at its own limit
+with --dt-scaling limit: ``level_raw``), written as an ordinary run file
+DIR/<family>/nx<N_x>/<name>.toml and run by the same code as ``parsph run``,
+on the same communicator, one level after another, without particle
+snapshots. Two more runs complete a study: the coarsest level with the
+viscosity k / (1 + b), b the kernel's viscosity bias at this h / dx (its
+effect is an error every level shares: DIR/<family>/nx<N_x>_bias), and,
+with --target, the finest level at its stability limit (the time error's
+share: DIR/<family>/nx<N_x>_dtlimit). The estimates are
+``parsph.convergence``'s; the cost of a level is the process CPU time of its
+time loop summed over ranks, up to each output time. A level whose
+``level.json`` records the same run file is reused, so a stopped study
+resumes.
 
 Writes DIR/converge.json and DIR/converge.png (error against cost).
 """
@@ -210,7 +217,8 @@ def _converge(comm, args, signals):
         time_rec = None
         nxf, rawf = levels[-1]
         s0 = raw0["numerics"].get("dt_safety", 1.0)
-        if scaling == "dx2" and rawf["numerics"].get("dt") == "auto" and rawf["numerics"]["dt_safety"] < s0 * (1 - 1e-6):
+        if (args.target is not None and scaling == "dx2" and rawf["numerics"].get("dt") == "auto"
+                and rawf["numerics"]["dt_safety"] < s0 * (1 - 1e-6)):
             # the finest level again at the base level's margin below its own limit: the difference is the
             # time error's share, which --target uses to trade a larger dt against a finer N_x
             traw = {s: dict(v) if isinstance(v, dict) else v for s, v in rawf.items()}
