@@ -304,13 +304,13 @@ BIAS_MIN = 1e-6  # |b| below this: no bias run (its effect is below any error me
 
 
 def bias_of(raw):
-    """b in nu_eff = (1 + b) nu for a run file's kernel and h/dx (None where it is not computed: 3-D,
-    or a scene without viscosity)."""
+    """b in nu_eff = (1 + b) nu for a run file's kernel, h/dx and lattice spacings (None for a scene
+    without viscosity)."""
     from . import config
     cfg = config.build(raw, config.dumps(raw))
     if cfg.k == 0 or not cfg.viscosity:
         return None
-    return convergence.kernel_bias(cfg.kernel, cfg.h / cfg.dx, cfg.dim)
+    return convergence.kernel_bias(cfg.kernel, cfg.h / cfg.dx, cfg.dim, dy=cfg.dy / cfg.dx, dz=cfg.dz / cfg.dx)
 
 
 def bias_raw(raw, b):

@@ -109,7 +109,7 @@ def _fmt(v, spec=".2e"):
 def print_report(rep):
     for fam in rep["families"]:
         if fam.get("bias") is None:
-            bias_note = "no bias run (3-D, or no viscosity): an error every level shares is not estimated"
+            bias_note = "no bias run (no viscosity, or |b| < 1e-6)"
         else:
             bias_note = (f"kernel bias b = {fam['bias']:+.2e} (nu_eff = (1 + b) nu, parsph.kernel_analysis), its "
                          f"effect from one run of N_x = {fam['Nx'][0]} with k / (1 + b), "

@@ -186,14 +186,16 @@ def _errors(est, F, f_inf, B):
     est.err_rms = [float(np.sqrt(np.mean((F[l] - f_inf - B) ** 2))) for l in range(L)]
 
 
-def kernel_bias(kernel, h_over_dx, dim=2, offsets=40):
+def kernel_bias(kernel, h_over_dx, dim=2, offsets=40, dy=1.0, dz=1.0):
     """b in nu_eff = (1 + b) nu: the Morris viscous operator's lattice sum for the kernel at h/dx,
     averaged over the sheared lattices (shift s = 0, 1/offsets, ...) that a shear flow passes
-    through as its columns slide (:mod:`parsph.kernel_analysis`). 2-D only (None in 3-D)."""
-    if dim != 2:
+    through as its columns slide (:mod:`parsph.kernel_analysis`), in 2-D or 3-D (None otherwise);
+    ``dy``, ``dz``: the lattice's other spacings in units of dx."""
+    if dim not in (2, 3):
         return None
     from .kernel_analysis import sheared_lattice_sums
-    return float(np.mean([sheared_lattice_sums(kernel, h_over_dx, s)[0] for s in np.arange(offsets) / offsets])) - 1.0
+    return float(np.mean([sheared_lattice_sums(kernel, h_over_dx, s, dim, dy, dz)[0]
+                          for s in np.arange(offsets) / offsets])) - 1.0
 
 
 def times_caution(orders, tol=TIMES_TOL):

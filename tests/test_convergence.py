@@ -290,7 +290,12 @@ def test_kernel_bias_vanishes_as_the_lattice_sum_becomes_the_integral():
     biases = [abs(cv.kernel_bias("wendland_c2", hr)) for hr in (1.25, 2.0, 3.0)]
     assert biases[0] > biases[1] > biases[2] and biases[2] < 1e-4
     assert 1e-3 < cv.kernel_bias("cubic_spline", 1.25) < 3e-2
-    assert cv.kernel_bias("cubic_spline", 1.25, dim=3) is None
+    # in 3-D too: the density sum of the same lattice is 1 within 0.2 %, and b vanishes as h / dx grows
+    from parsph.kernel_analysis import sheared_lattice_sums
+    assert sheared_lattice_sums("wendland_c2", 2.0, 0.3, dim=3)[1] == pytest.approx(1.0, abs=2e-3)
+    b3 = [abs(cv.kernel_bias("wendland_c2", hr, dim=3, offsets=8)) for hr in (1.25, 2.0, 3.0)]
+    assert b3[0] > b3[1] > b3[2] and b3[2] < 1e-4
+    assert cv.kernel_bias("cubic_spline", 1.25, dim=1) is None
 
 
 # ---- one short real scene through the command ---------------------------------------
@@ -364,7 +369,9 @@ def test_converge_on_the_periodic_box_sees_the_kernels_viscosity_bias(tmp_path, 
                      "--set", "output.times=[0.01, 0.05]", timeout=600)
     assert rc == 0, se
     fam = json.loads((out / "converge.json").read_text())["families"][0]
-    assert fam["bias"] == pytest.approx(cv.kernel_bias("cubic_spline", 1.25), rel=1e-12) and fam["bias"] > 0
+    # the coarsest lattice: L_y = 2 mm holds 3 rows of dy = (2 / 3) mm = (16 / 15) dx
+    assert fam["bias"] == pytest.approx(cv.kernel_bias("cubic_spline", 1.25, dy=16 / 15), rel=1e-12)
+    assert fam["bias"] > 0
     profs = [read_profile(str(out / "given" / f"nx{n}")) for n in (16, 32, 64)]
     xc = profs[0]["x"]
     nu, U, k = 1.0 * 0.35 / 2000.0, 0.1, 2 * math.pi / L
