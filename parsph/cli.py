@@ -2,7 +2,7 @@
 
     parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
     parsph check OUTPUT [--tol 0.02]
-    parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...]
+    parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
     parsph plot OUTPUT [--png FILE]
 
 Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
@@ -381,6 +381,9 @@ def build_parser():
     cv.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
     cv.add_argument("--force", action="store_true", help="overwrite a level's outputs that cannot be reused")
     cv.add_argument("--threads", type=int, default=1, metavar="N", help="threads per rank (as for run)")
+    cv.add_argument("--dt-scaling", choices=("limit", "dx2"), default="dx2",
+                    help="dx2 (default): dt ~ dx^2 from the coarsest level's limit, so the time error falls as "
+                         "dx^2 at every level; limit: each level at its own stability limit (cheaper; mixed orders)")
     pl = sub.add_parser("plot", help="PNG of the simulated profiles over the reference")
     pl.add_argument("output", help="output directory or file")
     pl.add_argument("--png", help="PNG path (default next to the outputs)")

@@ -23,6 +23,15 @@ order above ``max_order`` (the coarsest level is pre-asymptotic), or, with
 four or more levels, orders of successive triples that disagree.
 
 Profiles are compared on the coarsest level's bin centres (``to_coarse``).
+
+An error every level shares cannot show in their differences. The one SPH
+has at fixed h/dx is the kernel's viscosity bias on the (sheared) particle
+lattice, nu_eff = (1 + b) nu, a property of the kernel and h/dx alone
+(:func:`kernel_bias`). ``estimate(..., bias=B)`` takes its effect on the
+output, B(x) = f(k / (1 + b)) - f(k) at the coarsest level (one extra run,
+made by ``parsph converge``), and moves the limit by it: the levels converge
+to the flow of viscosity (1 + b) nu, the truth is that of nu, so
+f_true = f_inf + B to first order in b.
 """
 from dataclasses import dataclass, field
 import math
@@ -84,6 +93,11 @@ class Estimate:
     asymptotic: bool = False
     reasons: list = field(default_factory=list)  # why not, in words
     bins: int = 0                  # bins compared (finite in every level)
+    bias_max: float = None         # max |B| / scale: the kernel's viscosity bias's effect (None: not given)
+    richardson_max: list = None    # max |f_l - f_inf| / scale: the estimate without the bias
+    _ok: object = None             # the bins used (mask over the given ones)
+    _rich: object = None           # (f_finest - f_inf) / scale on those bins
+    _bias: object = None           # B / scale on those bins
 
     def as_dict(self):
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -99,10 +113,14 @@ def _ratio(d0, d1):
     return r, float(np.sqrt(np.sum((d0 - r * d1) ** 2))) / n0
 
 
-def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TOL, order_tol=ORDER_TOL):
+def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TOL, order_tol=ORDER_TOL,
+             bias=None):
     """Observed order and per-level errors from profiles (L, nbins) on common points, coarse first.
 
-    Bins that are not finite in every level are left out.
+    ``bias``: the profile B(x) that an error common to all levels adds (the kernel's
+    viscosity bias, see the module's docstring), on the same points; the limit the
+    errors are measured from is then f_inf + B. Bins that are not finite in every level
+    (or in B) are left out.
     """
     F = np.asarray(profiles, dtype=float)
     if F.ndim != 2 or F.shape[0] < 2:
@@ -110,11 +128,18 @@ def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TO
     if not ratio > 1:
         raise ValueError("the refinement ratio must exceed 1")
     ok = np.all(np.isfinite(F), axis=0)
+    if bias is not None:
+        B = np.asarray(bias, dtype=float)
+        ok &= np.isfinite(B)
     F = F[:, ok] / abs(scale)
+    B = B[ok] / abs(scale) if bias is not None else np.zeros(F.shape[1])
     L = F.shape[0]
     D = np.diff(F, axis=0)
     est = Estimate(diff_max=[float(np.max(np.abs(d), initial=0.0)) for d in D],
-                   diff_rms=[float(np.sqrt(np.mean(d * d))) if d.size else 0.0 for d in D], bins=int(ok.sum()))
+                   diff_rms=[float(np.sqrt(np.mean(d * d))) if d.size else 0.0 for d in D], bins=int(ok.sum()),
+                   _ok=ok, _bias=B)
+    if bias is not None:
+        est.bias_max = float(np.max(np.abs(B), initial=0.0))
     if F.shape[1] == 0:
         est.reasons.append("no bin has data in every level")
         return est
@@ -128,8 +153,7 @@ def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TO
     if est.diff_max[-1] == 0.0:
         # converged to round-off (e.g. a state the discretisation holds exactly): the finest is the limit
         est.order, est.asymptotic = math.inf, True
-        est.err_max = [float(np.max(np.abs(F[l] - F[-1]))) for l in range(L)]
-        est.err_rms = [float(np.sqrt(np.mean((F[l] - F[-1]) ** 2))) for l in range(L)]
+        _errors(est, F, F[-1], B)
         return est
     p, res = est.orders[-1], est.shapes[-1]
     est.order = p
@@ -149,10 +173,29 @@ def estimate(profiles, ratio, scale=1.0, max_order=MAX_ORDER, shape_tol=SHAPE_TO
     if est.reasons:
         return est
     est.asymptotic = True
-    f_inf = F[-1] + (F[-1] - F[-2]) / (ratio ** p - 1.0)
-    est.err_max = [float(np.max(np.abs(F[l] - f_inf))) for l in range(L)]
-    est.err_rms = [float(np.sqrt(np.mean((F[l] - f_inf) ** 2))) for l in range(L)]
+    _errors(est, F, F[-1] + (F[-1] - F[-2]) / (ratio ** p - 1.0), B)
     return est
+
+
+def _errors(est, F, f_inf, B):
+    """Each level's error against the limit f_inf + B, and against f_inf alone (Richardson)."""
+    L = F.shape[0]
+    est._rich = F[-1] - f_inf
+    est.richardson_max = [float(np.max(np.abs(F[l] - f_inf))) for l in range(L)]
+    est.err_max = [float(np.max(np.abs(F[l] - f_inf - B))) for l in range(L)]
+    est.err_rms = [float(np.sqrt(np.mean((F[l] - f_inf - B) ** 2))) for l in range(L)]
+
+
+def kernel_bias(kernel, h_over_dx, dim=2, offsets=40, dy=1.0, dz=1.0):
+    """b in nu_eff = (1 + b) nu: the Morris viscous operator's lattice sum for the kernel at h/dx,
+    averaged over the sheared lattices (shift s = 0, 1/offsets, ...) that a shear flow passes
+    through as its columns slide (:mod:`parsph.kernel_analysis`), in 2-D or 3-D (None otherwise);
+    ``dy``, ``dz``: the lattice's other spacings in units of dx."""
+    if dim not in (2, 3):
+        return None
+    from .kernel_analysis import sheared_lattice_sums
+    return float(np.mean([sheared_lattice_sums(kernel, h_over_dx, s, dim, dy, dz)[0]
+                          for s in np.arange(offsets) / offsets])) - 1.0
 
 
 def times_caution(orders, tol=TIMES_TOL):
@@ -186,16 +229,91 @@ def predict_nx(levels_nx, estimates, target):
 
     Each time's error model is its finest level's estimate scaled as h^p,
     err(N) = err_fine (N_fine / N)^p, used only where that time's estimate
-    is asymptotic; N is not taken below the coarsest level measured.
+    is asymptotic; N is not taken below the coarsest level measured. With a
+    bias effect B (``est.bias_max``), which no N removes, the model is
+    err(N) = rich_fine (N_fine / N)^p + max |B| (an upper bound of the max of
+    their sum), and a target at or below max |B| cannot be met at this h/dx.
     """
     need = levels_nx[0]
     for t, est in estimates:
         if not est.asymptotic or est.err_max is None:
             return None, f"t = {t:g} s: no trustworthy estimate ({'; '.join(est.reasons) or 'not asymptotic'})"
         e = est.err_max[-1]
-        if est.order == math.inf:
-            n_t = levels_nx[-1] if e > target else levels_nx[0]
+        floor = est.bias_max or 0.0
+        if floor > 0.0:
+            if floor >= target:
+                return None, (f"t = {t:g} s: the kernel's viscosity bias alone gives {floor:.2e} "
+                              f"at this h/dx, whatever N_x (another kernel or h/dx)")
+            e, target_t = est.richardson_max[-1], target - floor
         else:
-            n_t = math.ceil(levels_nx[-1] * (e / target) ** (1.0 / est.order) - 1e-9)
+            target_t = target
+        if est.order == math.inf:
+            n_t = levels_nx[-1] if e > target_t else levels_nx[0]
+        else:
+            n_t = math.ceil(levels_nx[-1] * (e / target_t) ** (1.0 / est.order) - 1e-9)
         need = max(need, n_t)
     return need, None
+
+
+# how each stability limit scales with dx at fixed h/dx (parsph.limits): advection 0.5 h / v, the
+# von Neumann limits 2 gamma / omega^2 (damping, independent of dx), 2 / gamma (viscous) and the
+# RK2 acoustic one (~ h / c), the body-force limit 0.25 sqrt(h / a)
+LIMIT_POWERS = {"advection": 1.0, "damping": 0.0, "viscous": 2.0, "acoustic": 1.0, "force": 0.5}
+
+
+def limit_at(nx, measured):
+    """The stability limit at N_x, scaled from the limits of the levels run, [(N_x, limits)], each term
+    with its power of dx (the smallest over levels and terms; None if a term's scaling is unknown).
+    A level names only the smaller of its two von Neumann terms, so coarse and fine levels together
+    give both."""
+    out = math.inf
+    for n0, limits in measured:
+        for k, v in limits.items():
+            if not math.isfinite(v):
+                continue
+            if k not in LIMIT_POWERS:
+                return None
+            out = min(out, v * (n0 / nx) ** LIMIT_POWERS[k])
+    return out
+
+
+def predict_setting(levels_nx, estimates, target, time_model, cost_of, max_factor=4, fractions=(0, 0.25, 0.5, 0.75, 1)):
+    """The cheapest (N_x, dt) predicted to meet ``target`` at every output time, from levels run with
+    dt ~ dx^2 and one run of the finest level at its stability limit. Returns (N_x, dt, dt_limit,
+    predicted error, cost) or (None, why).
+
+    ``estimates``: [(t, Estimate, T)], T(x) = (f(finest, dt_lim) - f(finest, dt_fine)) / scale / (dt_lim -
+    dt_fine) on the estimate's bins: the first-order time error per second of dt, measured.
+    ``time_model``: (dt_fine, dt_limit(N)): the finest level's dt and the limit at N.
+    ``cost_of(N)``: the cost at N with dt ~ dx^2 (the levels' scaling); a step costs the same at any dt,
+    so the cost at dt is cost_of(N) dt_dx2(N) / dt.
+
+    The error of level N at dt is modelled bin by bin as
+    R(x) (N_fine / N)^p - B(x) + T(x) (dt - dt_dx2(N)), R the finest level's Richardson error,
+    B the bias effect, dt_dx2(N) = dt_fine (N_fine / N)^2, dt between dt_dx2(N) and the limit.
+    """
+    dt_fine, dt_limit = time_model
+    nf = levels_nx[-1]
+    for t, est, _ in estimates:
+        if not est.asymptotic or est._rich is None or est.order == math.inf:
+            return None, f"t = {t:g} s: no trustworthy estimate ({'; '.join(est.reasons) or 'not asymptotic'})"
+    best = None
+    for n in range(levels_nx[0], max_factor * nf + 1):
+        lim = dt_limit(n)
+        d2 = dt_fine * (nf / n) ** 2
+        if lim is None or not d2 <= lim * (1 + 1e-9):
+            continue
+        for u in fractions:
+            dt = d2 + u * (lim - d2)
+            err = 0.0
+            for t, est, T in estimates:
+                b = est._bias if est._bias is not None else 0.0
+                e = est._rich * (nf / n) ** est.order - b + T * (dt - d2)
+                err = max(err, float(np.max(np.abs(e))))
+            if err <= target:
+                cost = cost_of(n) * d2 / dt
+                if best is None or cost < best[4]:
+                    best = (n, dt, lim, err, cost)
+    if best is None:
+        return None, f"no N_x up to {max_factor * nf} is predicted to meet {target:g}"
+    return best

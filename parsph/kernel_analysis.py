@@ -1,4 +1,4 @@
-"""Lattice sums of a kernel in 2-D: how far the discrete operators are from their continuum values.
+"""Lattice sums of a kernel in 2-D and 3-D: how far the discrete operators are from their continuum values.
 
 At a fixed ratio h/dx the SPH sums over a lattice do not converge to the
 continuum integrals as dx -> 0; their ratio to the continuum value depends on
@@ -27,28 +27,40 @@ import numpy as np
 from .kernels import get_kernel
 
 
-def sheared_lattice_sums(kernel, h_over_dx, shift=0.0):
-    """(nu_eff / nu, dx^2 sum_j W_ij) at a particle of the lattice whose column i is shifted by i*shift dx.
+def sheared_lattice_sums(kernel, h_over_dx, shift=0.0, dim=2, dy=1.0, dz=1.0):
+    """(nu_eff / nu, dx dy (dz) sum_j W_ij) at a particle of the lattice whose column i is shifted by
+    i*shift lattice spacings along y.
 
-    ``kernel``: a name of :data:`parsph.kernels.KERNEL_NAMES`; ``shift`` in units of dx
-    (0: the square lattice). The points are (i, j + frac(i * shift)) in units of dx.
+    ``kernel``: a name of :data:`parsph.kernels.KERNEL_NAMES`; lengths in units of dx, ``dy``
+    and ``dz`` the other spacings (a run whose L_y is not a multiple of dx has dy != dx);
+    ``shift`` in units of dy (0: the unsheared lattice). The points are
+    (i, (j + frac(i * shift)) dy) and in 3-D (i, (j + frac(i * shift)) dy, l dz): the columns
+    normal to x slide along y, z is not sheared. Each particle's volume is dy (dz), so the
+    Morris sum is -dy dz sum_j x_j^2 (dW/dr)(r_j) / r_j, whose continuum value is 1 in 2-D and
+    3-D alike (int x^2 W'/r dV = -int W dV by parts, with x^2 -> r^2 / dim).
     """
-    k = get_kernel(kernel, 2)
+    k = get_kernel(kernel, dim)
     h = float(h_over_dx)  # in units of dx
-    norm = k.norm(h, 2)
+    norm = k.norm(h, dim)
     reach = k.support * h
     n = int(math.ceil(reach)) + 1
-    i, j = np.meshgrid(np.arange(-n, n + 1), np.arange(-n - 1, n + 2), indexing="ij")
-    x = i.astype(float)
-    y = j + (x * shift - np.floor(x * shift))
-    r = np.hypot(x, y)
+    ny = int(math.ceil(reach / dy)) + 1
+    axes = [np.arange(-n, n + 1), np.arange(-ny - 1, ny + 2)]
+    if dim == 3:
+        nz = int(math.ceil(reach / dz)) + 1
+        axes.append(np.arange(-nz, nz + 1))
+    grid = np.meshgrid(*axes, indexing="ij")
+    x = grid[0].astype(float)
+    y = (grid[1] + (x * shift - np.floor(x * shift))) * dy
+    r = np.sqrt(x * x + y * y + ((grid[2] * dz) ** 2 if dim == 3 else 0.0))
+    vol = dy * (dz if dim == 3 else 1.0)
     inside = r < reach
     x, r = x[inside], r[inside]
     w = np.array([k.w(float(q), 1.0 / h, norm) for q in r])
     off = r > 0
     dwdr = np.array([k.dwdr(float(q), 1.0 / h, norm) for q in r[off]])
-    nu_ratio = 2.0 * float(np.sum(-0.5 * x[off] ** 2 * dwdr / r[off]))
-    return nu_ratio, float(np.sum(w))
+    nu_ratio = vol * 2.0 * float(np.sum(-0.5 * x[off] ** 2 * dwdr / r[off]))
+    return nu_ratio, vol * float(np.sum(w))
 
 
 def viscosity_bias(kernel, h_over_dx):

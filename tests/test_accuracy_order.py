@@ -24,8 +24,10 @@ and the share of the next-order terms at N_x = 20 (the kernel's smoothing error 
 first-order case; the first-order time error of Eqs. (6)-(7), with dt proportional to dx,
 and the bias floor for the second-order case) is not known a priori. They are wide
 enough for that and narrow enough to tell the orders 1 and 2 apart. The sweep's fits over
-N_x = 20 ... 100 and 20 ... 50 (docs/accuracy.md) give 0.98 and 1.99. The serial run of
-both cases takes about 10 s of CPU.
+N_x = 20 ... 100 and 20 ... 50 at the full stability limit (docs/accuracy.md) give 0.95 and
+2.48, the latter raised by the first-order time error cancelling part of the spatial one,
+which is why this test steps at a quarter of the limit. The serial run of both cases takes
+a few s of CPU.
 """
 import math
 
