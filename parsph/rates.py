@@ -17,6 +17,27 @@ from .kernels import kernel_w_f
 from .particles import FLUID
 
 
+# the passes as compiled here (scripts/bench.py wraps the module's names to time them: these stay as they are)
+PASSES = {name: getattr(equations, name) for name in ("density_serial", "density_threaded", "particle_factors",
+                                                      "momentum_serial", "momentum_threaded")}
+
+
+def compiled(dispatcher, *args):
+    """The version of a numba pass compiled for the types of ``args`` (compiled, or loaded from the cache, now).
+
+    The dispatcher types named-tuple arguments in Python at every call
+    (4 to 11 us a pass, against 1.4 to 2.7 us for the same arrays as
+    positional arguments: docs/performance.md); the compiled version takes
+    them as they are. The types do not change between list builds, so each
+    pass is looked up once per build. The dispatcher must have run once
+    (it starts numba's threads, which the compiled version expects). Without
+    the JIT (``NUMBA_DISABLE_JIT``) the function is returned as it is.
+    """
+    if not hasattr(dispatcher, "compile"):
+        return dispatcher
+    return dispatcher.compile(tuple(numba.typeof(a) for a in args))
+
+
 class Rates:
     """Evaluates rho, theta and the accelerations of the owned particles of a ``Particles`` set.
 
@@ -26,23 +47,22 @@ class Rates:
     """
 
     def __init__(self, kernel, h, dim, rho_s, G_a, G_b, k, L, beta_max, g, switches, grid, skin):
-        pressure, viscosity, symmetric_mu, walls, consistent = switches
-        self.three_d = equations.switch(dim == 3)
+        inv_h = 1.0 / h
+        norm = kernel.norm(h, dim)
+        w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
+        self.consts = equations.Constants(kernel.kid, inv_h, norm, w0, rho_s, G_a, G_b, k, L, beta_max,
+                                          np.asarray(g, float))
+        self.switches = equations.Switches(*switches, equations.switch(dim == 3))
         self.grid = grid
         self.skin = skin
-        self.kid = kernel.kid
-        self.inv_h = 1.0 / h
-        self.norm = kernel.norm(h, dim)
-        self.w0 = kernel_w_f(kernel.kid, 0.0, self.inv_h, self.norm)[0]
-        self.rho_s, self.G_a, self.G_b = rho_s, G_a, G_b
-        self.pressure, self.consistent = pressure, consistent
-        self.momentum_consts = (rho_s, G_b, k, L, beta_max, np.asarray(g, float), pressure, viscosity,
-                                symmetric_mu, walls, consistent, self.three_d)
         self.npairs = 0
         self.pi = np.zeros(0, np.int32)
         self.pj = np.zeros(0, np.int32)
         self.fp = np.zeros(0)
-        self._threaded = None  # (wp, Pp, Vp, offset, entry), made when threads are in use
+        self.list = None      # equations.PairList of the last build
+        self._gather = None   # equations.Gather, made when threads are in use
+        self._passes = {}     # name -> the pass compiled for this build's argument types (compiled())
+        self.wrap = None      # if set, wraps each pass as it is looked up (scripts/bench.py times them)
         self._cap = 0
         self.n = 0
 
@@ -101,54 +121,62 @@ class Rates:
         if len(self.fp) < count:
             self.fp = np.zeros(len(self.pi))
         self.n = n
-        self._threaded = None
+        self.list = equations.PairList(self.order, self.pstart, self.pi, self.pj, self.need, n, count, self.fp,
+                                       self.rho_sum, self.fields)
+        self._gather = None
+        self._passes = {}
 
     def spread(self, ps):
         """The largest displacement spread over the blocks of this rank (the list holds while below the skin)."""
         return neighbours.block_spread(ps.disp, self.n, self.cell, self.size, self.centre_lo, self.centre_hi,
                                        self.box, self.work)
 
-    def _threaded_arrays(self):
-        if self._threaded is None:
+    def _gather_arrays(self):
+        if self._gather is None:
             n, npairs = self.n, self.npairs
             offset = np.zeros(n + 1, np.int64)
             entry = np.zeros(2 * npairs + 1, np.int64)
             neighbours.build_entries(self.pi, self.pj, npairs, self.need, n, offset, entry)
-            self._threaded = (np.zeros(npairs), np.zeros(npairs), np.zeros(npairs), offset, entry)
-        return self._threaded
+            self._gather = equations.Gather(offset, entry, np.zeros(npairs), np.zeros(npairs), np.zeros(npairs))
+        return self._gather
 
     # ---- the passes ------------------------------------------------------------------
+    def _run(self, name, *args):
+        """Call pass ``equations.<name>``: the first call of a list build goes through numba's dispatcher
+        (which compiles or loads the pass and starts numba's threads), later calls to its compiled version."""
+        fn = self._passes.get(name)
+        if fn is not None:
+            return fn(*args)
+        dispatcher = PASSES[name]
+        wrap = self.wrap or (lambda f: f)
+        out = wrap(dispatcher)(*args)
+        self._passes[name] = wrap(compiled(dispatcher, *args))
+        return out
+
     def __call__(self, ps, halo, timers=None):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``halo.refresh(ps, ps.rho)`` updates the copies.
 
         Wall particles keep the rho they hold. ``timers`` (a dict) gets the
         seconds of "density", "halo" and "forces" added.
         """
-        n, n_own, npairs = self.n, ps.n_own, self.npairs  # the particles of the last build
-        threaded = numba.get_num_threads() > 1
+        lst, c, sw = self.list, self.consts, self.switches  # the particles of the last build
+        parts = equations.particle_arrays(ps)
+        n, n_own = lst.n, ps.n_own
+        gather = self._gather_arrays() if numba.get_num_threads() > 1 else None
         t0 = time.perf_counter()
-        if threaded:
-            wp, Pp, Vp, offset, entry = self._threaded_arrays()
-            equations.density_threaded(self.order, self.pstart, self.pi, self.pj, n, npairs, ps.pos, ps.mass,
-                                       self.kid, self.inv_h, self.norm, self.w0, self.three_d, self.rho_sum, self.fp,
-                                       wp, self.need, offset, entry)
+        if gather is not None:
+            self._run("density_threaded", lst, parts, c, sw, gather)
         else:
-            equations.density_serial(self.order, self.pstart, self.pj, n, ps.pos, ps.mass, self.kid, self.inv_h,
-                                     self.norm, self.w0, self.three_d, self.rho_sum, self.fp)
-        equations.particle_factors(ps.rho, self.rho_sum, ps.kind, 0, n_own, n_own, self.rho_s, self.G_a, self.G_b,
-                                   self.pressure, self.consistent, ps.vel, ps.theta, self.fields)
+            self._run("density_serial", lst, parts, c, sw)
+        self._run("particle_factors", lst, parts, c, sw, 0, n_own)
         t1 = time.perf_counter()
         halo.refresh(ps, ps.rho)
         t2 = time.perf_counter()
-        equations.particle_factors(ps.rho, self.rho_sum, ps.kind, n_own, n, n_own, self.rho_s, self.G_a, self.G_b,
-                                   self.pressure, self.consistent, ps.vel, ps.theta, self.fields)
-        if threaded:
-            equations.momentum_threaded(self.order, self.pstart, self.pi, self.pj, n, npairs, self.fp, ps.pos,
-                                        ps.mass, ps.kind, self.fields, self.need, n_own, *self.momentum_consts,
-                                        ps.acc, Pp, Vp, offset, entry)
+        self._run("particle_factors", lst, parts, c, sw, n_own, n)
+        if gather is not None:
+            self._run("momentum_threaded", lst, parts, c, sw, gather)
         else:
-            equations.momentum_serial(self.order, self.pstart, self.pj, n, self.fp, ps.pos, ps.mass, ps.kind,
-                                      self.fields, self.need, n_own, *self.momentum_consts, ps.acc)
+            self._run("momentum_serial", lst, parts, c, sw)
         t3 = time.perf_counter()
         if timers is not None:
             timers["density"] += t1 - t0

@@ -4,9 +4,11 @@
 
 With nothing to loop over, a call costs what numba's dispatcher does before
 and after the loop: typing the arguments, finding the compiled version,
-boxing the result. Each pass is called as :class:`parsph.rates.Rates` calls
-it, with the arrays of a small Couette case and n = 0; the median over
-``--rounds`` rounds of ``--calls`` calls each, in process CPU time.
+boxing the result. Each pass gets the arguments :class:`parsph.rates.Rates`
+gives it, from a small Couette case, with n = 0; it is called through its
+dispatcher and through the compiled version (:func:`parsph.rates.compiled`,
+as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
+calls each, in process CPU time.
 """
 import argparse
 import os
@@ -20,31 +22,25 @@ from mpi4py import MPI
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench import make_config  # noqa: E402
 
-from parsph import equations, neighbours  # noqa: E402
+from parsph import equations, neighbours, rates  # noqa: E402
 from parsph.solver import Simulation  # noqa: E402
 
 
 def empty_calls(sim):
     """name -> (function, arguments) of every pass, on an empty input."""
     R, ps = sim.rates, sim.ps
-    wp, Pp, Vp, offset, entry = R._threaded_arrays()
-    mc = R.momentum_consts
+    gather = R._gather_arrays()
+    lst = R.list._replace(n=0, npairs=0)
+    parts = equations.particle_arrays(ps)._replace(n_own=0)
+    c, sw = R.consts, R.switches
     return {
-        "density_serial": (equations.density_serial, (R.order, R.pstart, R.pj, 0, ps.pos, ps.mass, R.kid, R.inv_h,
-                                                      R.norm, R.w0, R.three_d, R.rho_sum, R.fp)),
-        "density_threaded": (equations.density_threaded, (R.order, R.pstart, R.pi, R.pj, 0, 0, ps.pos, ps.mass,
-                                                          R.kid, R.inv_h, R.norm, R.w0, R.three_d, R.rho_sum, R.fp,
-                                                          wp, R.need, offset, entry)),
-        "particle_factors": (equations.particle_factors, (ps.rho, R.rho_sum, ps.kind, 0, 0, 0, R.rho_s, R.G_a,
-                                                          R.G_b, R.pressure, R.consistent, ps.vel, ps.theta,
-                                                          R.fields)),
-        "momentum_serial": (equations.momentum_serial, (R.order, R.pstart, R.pj, 0, R.fp, ps.pos, ps.mass, ps.kind,
-                                                        R.fields, R.need, 0, *mc, ps.acc)),
-        "momentum_threaded": (equations.momentum_threaded, (R.order, R.pstart, R.pi, R.pj, 0, 0, R.fp, ps.pos,
-                                                            ps.mass, ps.kind, R.fields, R.need, 0, *mc, ps.acc, Pp,
-                                                            Vp, offset, entry)),
-        "block_spread": (neighbours.block_spread, (ps.disp, 0, R.cell, np.zeros(3, np.int64), R.centre_lo, R.centre_lo - 1, R.box,
-                                                   R.work)),
+        "density_serial": (equations.density_serial, (lst, parts, c, sw)),
+        "density_threaded": (equations.density_threaded, (lst, parts, c, sw, gather)),
+        "particle_factors": (equations.particle_factors, (lst, parts, c, sw, 0, 0)),
+        "momentum_serial": (equations.momentum_serial, (lst, parts, c, sw)),
+        "momentum_threaded": (equations.momentum_threaded, (lst, parts, c, sw, gather)),
+        "block_spread": (neighbours.block_spread, (ps.disp, 0, R.cell, np.zeros(3, np.int64), R.centre_lo,
+                                                   R.centre_lo - 1, R.box, R.work)),
     }
 
 
@@ -68,8 +64,11 @@ def main():
     numba.set_num_threads(1)
     sim = Simulation(make_config(10), MPI.COMM_SELF)
     sim.compute_rates()
+    print(f"{'pass':18s} {'dispatcher':>10s} {'compiled':>10s}  [us per call, CPU, median]")
     for name, (fn, args) in empty_calls(sim).items():
-        print(f"{name:18s} {per_call(fn, args, a.calls, a.rounds):6.2f} us per call (CPU, median)", flush=True)
+        direct = per_call(fn, args, a.calls, a.rounds)
+        version = per_call(rates.compiled(fn, *args), args, a.calls, a.rounds)  # after the dispatcher ran
+        print(f"{name:18s} {direct:10.2f} {version:10.2f}", flush=True)
     return 0
 
 
