@@ -27,7 +27,7 @@ from numba import njit
 
 from numba.core.registry import CPUDispatcher
 
-from parsph import config, decomposition, equations, integrate, neighbours, particles, profile, rates, solver
+from parsph import config, equations, halo_rows, integrate, neighbours, particles, profile, rates, solver
 from parsph.solver import PHASES, Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -56,7 +56,7 @@ class NumbaClock:
         self._rates = rates
         rates.wrap = self._wrap
         rates._passes = {name: self._wrap(fn) for name, fn in rates._passes.items()}
-        for mod in (equations, integrate, neighbours, particles, decomposition, profile, rates, solver):
+        for mod in (equations, integrate, neighbours, particles, halo_rows, profile, rates, solver):
             for name, obj in list(vars(mod).items()):
                 if isinstance(obj, CPUDispatcher):
                     self._saved.append((mod, name, obj))
