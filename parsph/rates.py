@@ -12,7 +12,7 @@ import time
 import numba
 import numpy as np
 
-from . import equations, neighbours
+from . import equations, neighbours, pass_data
 from .kernels import kernel_w_f
 from .particles import FLUID
 
@@ -41,7 +41,7 @@ def compiled(dispatcher, *args):
 class Rates:
     """Evaluates rho, theta and the accelerations of the owned particles of a ``Particles`` set.
 
-    ``switches`` are :func:`equations.switch` values for (pressure,
+    ``switches`` are :func:`pass_data.switch` values for (pressure,
     viscosity, symmetric viscosity, walls, consistent pressure); ``g`` the
     body force as a 3-vector.
     """
@@ -50,17 +50,17 @@ class Rates:
         inv_h = 1.0 / h
         norm = kernel.norm(h, dim)
         w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
-        self.consts = equations.Constants(kernel.kid, inv_h, norm, w0, rho_s, G_a, G_b, k, L, beta_max,
+        self.consts = pass_data.Constants(kernel.kid, inv_h, norm, w0, rho_s, G_a, G_b, k, L, beta_max,
                                           np.asarray(g, float))
-        self.switches = equations.Switches(*switches, equations.switch(dim == 3))
+        self.switches = pass_data.Switches(*switches, pass_data.switch(dim == 3))
         self.grid = grid
         self.skin = skin
         self.npairs = 0
         self.pi = np.zeros(0, np.int32)
         self.pj = np.zeros(0, np.int32)
         self.fp = np.zeros(0)
-        self.list = None      # equations.PairList of the last build
-        self._gather = None   # equations.Gather, made when threads are in use
+        self.list = None      # pass_data.PairList of the last build
+        self._gather = None   # pass_data.Gather, made when threads are in use
         self._passes = {}     # name -> the pass compiled for this build's argument types (compiled())
         self.wrap = None      # if set, wraps each pass as it is looked up (scripts/bench.py times them)
         self._cap = 0
@@ -121,7 +121,7 @@ class Rates:
         if len(self.fp) < count:
             self.fp = np.zeros(len(self.pi))
         self.n = n
-        self.list = equations.PairList(self.order, self.pstart, self.pi, self.pj, self.need, n, count, self.fp,
+        self.list = pass_data.PairList(self.order, self.pstart, self.pi, self.pj, self.need, n, count, self.fp,
                                        self.rho_sum, self.fields)
         self._gather = None
         self._passes = {}
@@ -137,7 +137,7 @@ class Rates:
             offset = np.zeros(n + 1, np.int64)
             entry = np.zeros(2 * npairs + 1, np.int64)
             neighbours.build_entries(self.pi, self.pj, npairs, self.need, n, offset, entry)
-            self._gather = equations.Gather(offset, entry, np.zeros(npairs), np.zeros(npairs), np.zeros(npairs))
+            self._gather = pass_data.Gather(offset, entry, np.zeros(npairs), np.zeros(npairs), np.zeros(npairs))
         return self._gather
 
     # ---- the passes ------------------------------------------------------------------
@@ -160,7 +160,7 @@ class Rates:
         seconds of "density", "halo" and "forces" added.
         """
         lst, c, sw = self.list, self.consts, self.switches  # the particles of the last build
-        parts = equations.particle_arrays(ps)
+        parts = pass_data.particle_arrays(ps)
         n, n_own = lst.n, ps.n_own
         gather = self._gather_arrays() if numba.get_num_threads() > 1 else None
         t0 = time.perf_counter()

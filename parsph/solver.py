@@ -35,7 +35,7 @@ from .output import Frame, read_particles
 from .particles import FLUID, Particles, state_maxima
 from .profile import bin_centres, bin_sums, errors
 from .rates import Rates
-from . import equations
+from . import pass_data
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
 GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
@@ -100,7 +100,7 @@ class Simulation:
         if self.scene.terms.body_force:
             self.g[:cfg.dim] = cfg.g
         self.period_x = 0.0 if walls else cfg.L
-        sw = equations.switch
+        sw = pass_data.switch
         switches = (sw(cfg.pressure), sw(cfg.viscosity), sw(cfg.get("numerics.viscosity_form") == "symmetric"),
                     sw(walls), sw(cfg.get("numerics.pressure_form") == "consistent"))
         self.step = 0 if state is None else int(state["attrs"]["step"])

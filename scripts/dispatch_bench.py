@@ -22,7 +22,7 @@ from mpi4py import MPI
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench import make_config  # noqa: E402
 
-from parsph import equations, neighbours, rates  # noqa: E402
+from parsph import equations, neighbours, pass_data, rates  # noqa: E402
 from parsph.solver import Simulation  # noqa: E402
 
 
@@ -31,7 +31,7 @@ def empty_calls(sim):
     R, ps = sim.rates, sim.ps
     gather = R._gather_arrays()
     lst = R.list._replace(n=0, npairs=0)
-    parts = equations.particle_arrays(ps)._replace(n_own=0)
+    parts = pass_data.particle_arrays(ps)._replace(n_own=0)
     c, sw = R.consts, R.switches
     return {
         "density_serial": (equations.density_serial, (lst, parts, c, sw)),
