@@ -121,6 +121,15 @@ def local_cells(coords, n, lo, size, cell):
         cell[i] = c
 
 
+@njit(cache=True, inline="always")
+def _starts(count, m):
+    """The counts of m buckets in ``count[1..m]`` become their first places (``count[b]``, in place, a prefix
+    sum); returns a copy of the first places, to be advanced as the buckets are filled."""
+    for b in range(m):
+        count[b + 1] += count[b]
+    return count[:m].copy()
+
+
 @njit(cache=True)
 def sort_by_cell(cell, gid, n, ncells, order, start):
     """Counting sort of particles 0..n-1 by cell, by gid inside a cell: ``order[a]`` is the a-th particle.
@@ -130,9 +139,7 @@ def sort_by_cell(cell, gid, n, ncells, order, start):
     start[:ncells + 1] = 0
     for i in range(n):
         start[cell[i] + 1] += 1
-    for c in range(ncells):
-        start[c + 1] += start[c]
-    fill = start[:ncells].copy()
+    fill = _starts(start, ncells)
     for i in range(n):
         c = cell[i]
         k = fill[c]
@@ -215,9 +222,7 @@ def build_entries(pi, pj, npairs, need, n, offset, entry):
             offset[pi[p] + 1] += 1
         if need[pj[p]]:
             offset[pj[p] + 1] += 1
-    for i in range(n):
-        offset[i + 1] += offset[i]
-    fill = offset[:n].copy()
+    fill = _starts(offset, n)
     for p in range(npairs):
         i = pi[p]
         j = pj[p]
