@@ -28,6 +28,7 @@ import numpy as np
 from mpi4py import MPI
 
 from .halo_rows import pack_forward, pack_scalar, unpack_forward, unpack_scalar
+from .neighbours import CellBox
 from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
 
 TAG_UP, TAG_DOWN, TAG_MOVE_UP, TAG_MOVE_DOWN = 11, 12, 13, 14
@@ -284,7 +285,7 @@ class SlabRing:
         return coords
 
     def local_box(self, ps_dim):
-        """(lo, size, centre_lo, centre_hi) of this rank's local cell box in global integer cell coordinates.
+        """This rank's local cell box (a :class:`parsph.neighbours.CellBox`) in global integer cell coordinates.
 
         Rows: this slab's own rows and M more on each side; x and z: the whole
         grid, plus M image rows at each periodic end. Block centres: the slab's
@@ -310,4 +311,4 @@ class SlabRing:
                 c_lo.append(0)
                 c_hi.append(a.n - 1)
         as_int = lambda v: np.array(v, np.int64)  # noqa: E731
-        return as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi)
+        return CellBox(as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi))

@@ -20,6 +20,7 @@ from .particles import FLUID
 # the passes as compiled here (scripts/bench.py wraps the module's names to time them: these stay as they are)
 PASSES = {name: getattr(equations, name) for name in ("density_serial", "density_threaded", "particle_factors",
                                                       "momentum_serial", "momentum_threaded")}
+PASSES["block_spread"] = neighbours.block_spread  # the list's validity test, every step
 
 
 def compiled(dispatcher, *args):
@@ -67,28 +68,27 @@ class Rates:
         self.n = 0
 
     # ---- the list ------------------------------------------------------------------
-    def sort_owned(self, coords, gid, n, box):
+    def sort_owned(self, coords, gid, n, local):
         """The order of particles 0..n-1 by cell and gid (a counting sort on the local cell box)."""
-        lo, size = box[:2]
-        ncells = int(np.prod(size))
+        ncells = int(np.prod(local.size))
         cell = np.zeros(n, np.int64)
         order = np.zeros(n, np.int64)
         start = np.zeros(ncells + 1, np.int64)
-        neighbours.local_cells(coords, n, lo, size, cell)
+        neighbours.local_cells(coords, n, local, cell)
         neighbours.sort_by_cell(cell, gid, n, ncells, order, start)
         return order
 
-    def build(self, ps, coords, box):
+    def build(self, ps, coords, local):
         """Sort the n local particles into cells and list their unique pairs within 2h + skin of their
         reference positions ``ps.ref`` (the positions at this build).
 
-        ``coords``: integer cell coordinates per particle; ``box``: (lo, size,
-        centre_lo, centre_hi) of the local cell box (SlabRing.local_box).
+        ``coords``: integer cell coordinates per particle; ``local``: the
+        rank's :class:`parsph.neighbours.CellBox` (SlabRing.local_box).
         """
         n = ps.n
-        lo, size, self.centre_lo, self.centre_hi = box
-        self.size = size
-        ncells = int(np.prod(size))
+        self.local = local
+        self.size = local.size
+        ncells = int(np.prod(local.size))
         if self._cap < n:
             self._cap = max(n, int(1.3 * self._cap))
             self.cell = np.zeros(self._cap, np.int64)
@@ -101,16 +101,17 @@ class Rates:
             self.start = np.zeros(ncells + 1, np.int64)
             self.box = np.zeros((ncells, 6))
             self.work = np.zeros((ncells, 6))
-        neighbours.local_cells(coords, n, lo, size, self.cell)
+        neighbours.local_cells(coords, n, local, self.cell)
         neighbours.sort_by_cell(self.cell, ps.gid, n, ncells, self.order, self.start)
+        self.cells = neighbours.CellOrder(self.cell, self.order, self.start, n)
         self.need[:n] = False
         self.need[:ps.n_own] = ps.kind[:ps.n_own] == FLUID
         if len(self.pi) < 1:  # build_pairs needs room for one store beyond its pairs
             self.pi = np.zeros(16 * n + 64, np.int32)
             self.pj = np.zeros(16 * n + 64, np.int32)
         while True:
-            count = neighbours.build_pairs(ps.ref, self.need, self.order, self.start, self.cell, n, size,
-                                           self.grid.cutoff, self.pstart, self.pi, self.pj)
+            count = neighbours.build_pairs(ps.ref, self.need, self.cells, local, self.grid.cutoff, self.pstart,
+                                           self.pi, self.pj)
             if count >= 0:
                 break
             cap = int(1.2 * -count) + 64
@@ -128,8 +129,7 @@ class Rates:
 
     def spread(self, ps):
         """The largest displacement spread over the blocks of this rank (the list holds while below the skin)."""
-        return neighbours.block_spread(ps.disp, self.n, self.cell, self.size, self.centre_lo, self.centre_hi,
-                                       self.box, self.work)
+        return self._run("block_spread", ps.disp, self.cells, self.local, self.box, self.work)
 
     def _gather_arrays(self):
         if self._gather is None:
@@ -142,7 +142,7 @@ class Rates:
 
     # ---- the passes ------------------------------------------------------------------
     def _run(self, name, *args):
-        """Call pass ``equations.<name>``: the first call of a list build goes through numba's dispatcher
+        """Call pass ``name`` (of PASSES): the first call of a list build goes through numba's dispatcher
         (which compiles or loads the pass and starts numba's threads), later calls to its compiled version."""
         fn = self._passes.get(name)
         if fn is not None:

@@ -178,14 +178,14 @@ class Simulation:
         coords = np.zeros((ps.capacity, 3), np.int64)
         cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
-        box = ring.local_box(ps.dim)
-        order = self.rates.sort_owned(coords, ps.gid, n, box)
+        local = ring.local_box(ps.dim)
+        order = self.rates.sort_owned(coords, ps.gid, n, local)
         ps.reorder_owned(order)
         coords[:n] = coords[order]
         coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
-        self.rates.build(ps, coords, box)
+        self.rates.build(ps, coords, local)
         self._built = True
         self.rebuilds += 1
         self.timers["rebuild"] += time.perf_counter() - t0

@@ -33,14 +33,14 @@ def empty_calls(sim):
     lst = R.list._replace(n=0, npairs=0)
     parts = pass_data.particle_arrays(ps)._replace(n_own=0)
     c, sw = R.consts, R.switches
+    empty_box = R.local._replace(size=np.zeros(3, np.int64), centre_hi=R.local.centre_lo - 1)
     return {
         "density_serial": (equations.density_serial, (lst, parts, c, sw)),
         "density_threaded": (equations.density_threaded, (lst, parts, c, sw, gather)),
         "particle_factors": (equations.particle_factors, (lst, parts, c, sw, 0, 0)),
         "momentum_serial": (equations.momentum_serial, (lst, parts, c, sw)),
         "momentum_threaded": (equations.momentum_threaded, (lst, parts, c, sw, gather)),
-        "block_spread": (neighbours.block_spread, (ps.disp, 0, R.cell, np.zeros(3, np.int64), R.centre_lo,
-                                                   R.centre_lo - 1, R.box, R.work)),
+        "block_spread": (neighbours.block_spread, (ps.disp, R.cells._replace(n=0), empty_box, R.box, R.work)),
     }
 
 
