@@ -26,17 +26,28 @@ PASSES["block_spread"] = neighbours.block_spread  # the list's validity test, ev
 def compiled(dispatcher, *args):
     """The version of a numba pass compiled for the types of ``args`` (compiled, or loaded from the cache, now).
 
-    The dispatcher types named-tuple arguments in Python at every call
-    (4 to 11 us a pass, against 1.4 to 2.7 us for the same arrays as
-    positional arguments: docs/performance.md); the compiled version takes
-    them as they are. The types do not change between list builds, so each
-    pass is looked up once per build. The dispatcher must have run once
-    (it starts numba's threads, which the compiled version expects). Without
-    the JIT (``NUMBA_DISABLE_JIT``) the function is returned as it is.
+    The dispatcher types named-tuple arguments at every call (6 to 10 us a
+    pass more than the same arrays as positional arguments:
+    docs/performance.md); the compiled version takes them as they are. The
+    dispatcher must have run once (it starts numba's threads, which the
+    compiled version expects). Typing the arguments here costs some 100 us
+    a named tuple, so :class:`Rates` does it once per kind of arguments
+    (:func:`kinds`). Without the JIT (``NUMBA_DISABLE_JIT``) the function is
+    returned as it is.
     """
     if not hasattr(dispatcher, "compile"):
         return dispatcher
     return dispatcher.compile(tuple(numba.typeof(a) for a in args))
+
+
+def kinds(value):
+    """What decides a value's numba type, read cheaply: an array's dtype, dimensions, contiguity and
+    writeability, a tuple's class and elements, another value's Python type."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype.char, value.ndim, value.flags.c_contiguous, value.flags.writeable)
+    if isinstance(value, tuple):
+        return (type(value),) + tuple(kinds(v) for v in value)
+    return type(value)
 
 
 class Rates:
@@ -63,6 +74,7 @@ class Rates:
         self.list = None      # pass_data.PairList of the last build
         self._gather = None   # pass_data.Gather, made when threads are in use
         self._passes = {}     # name -> the pass compiled for this build's argument types (compiled())
+        self._versions = {}   # (name, kinds(args)) -> the compiled version, kept across builds
         self.wrap = None      # if set, wraps each pass as it is looked up (scripts/bench.py times them)
         self._cap = 0
         self.n = 0
@@ -142,16 +154,26 @@ class Rates:
 
     # ---- the passes ------------------------------------------------------------------
     def _run(self, name, *args):
-        """Call pass ``name`` (of PASSES): the first call of a list build goes through numba's dispatcher
-        (which compiles or loads the pass and starts numba's threads), later calls to its compiled version."""
+        """Call pass ``name`` (of PASSES) through its compiled version, looked up once per list build.
+
+        The first call with arguments of a new kind goes through numba's
+        dispatcher (which compiles or loads the pass and starts numba's
+        threads); the compiled version for that kind is kept across builds.
+        """
         fn = self._passes.get(name)
         if fn is not None:
             return fn(*args)
-        dispatcher = PASSES[name]
         wrap = self.wrap or (lambda f: f)
-        out = wrap(dispatcher)(*args)
-        self._passes[name] = wrap(compiled(dispatcher, *args))
-        return out
+        key = (name, kinds(args))
+        version = self._versions.get(key)
+        if version is None:
+            dispatcher = PASSES[name]
+            out = wrap(dispatcher)(*args)
+            self._versions[key] = compiled(dispatcher, *args)
+            self._passes[name] = wrap(self._versions[key])
+            return out
+        fn = self._passes[name] = wrap(version)
+        return fn(*args)
 
     def __call__(self, ps, halo, timers=None):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``halo.refresh(ps, ps.rho)`` updates the copies.

@@ -27,7 +27,7 @@ from numba import njit
 
 from numba.core.registry import CPUDispatcher
 
-from parsph import config, equations, halo_rows, integrate, neighbours, particles, profile, rates, solver
+from parsph import config, decomposition, equations, integrate, neighbours, particles, profile, rates, solver
 from parsph.solver import PHASES, Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -44,8 +44,9 @@ def make_config(nx, extra=()):
 class NumbaClock:
     """Wraps every numba function the solver calls to add up the time spent inside them.
 
-    The passes of Eq. (3) and (5) are called through the versions ``Rates`` looks up per list build: they are
-    wrapped through its ``wrap`` hook."""
+    A module's names are wrapped where the solver calls them from (decomposition holds the halo loops of
+    halo_rows under their imported names). The passes of Eq. (3) and (5) and the validity test are called
+    through the versions ``Rates`` looks up per list build: they are wrapped through its ``wrap`` hook."""
 
     def __init__(self):
         self.seconds = 0.0
@@ -56,7 +57,7 @@ class NumbaClock:
         self._rates = rates
         rates.wrap = self._wrap
         rates._passes = {name: self._wrap(fn) for name, fn in rates._passes.items()}
-        for mod in (equations, integrate, neighbours, particles, halo_rows, profile, rates, solver):
+        for mod in (equations, integrate, neighbours, particles, decomposition, profile, rates, solver):
             for name, obj in list(vars(mod).items()):
                 if isinstance(obj, CPUDispatcher):
                     self._saved.append((mod, name, obj))

@@ -1,6 +1,6 @@
 """The cost of calling each numba pass: CPU time per call on an empty input (no particle, no pair).
 
-    .venv/bin/python scripts/dispatch_bench.py [--calls N] [--rounds R]
+    .venv/bin/python scripts/dispatch_bench.py [--calls N] [--rounds R] [--steps N]
 
 With nothing to loop over, a call costs what numba's dispatcher does before
 and after the loop: typing the arguments, finding the compiled version,
@@ -8,7 +8,10 @@ boxing the result. Each pass gets the arguments :class:`parsph.rates.Rates`
 gives it, from a small Couette case, with n = 0; it is called through its
 dispatcher and through the compiled version (:func:`parsph.rates.compiled`,
 as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
-calls each, in process CPU time.
+calls each, in process CPU time. Then the time of whole steps of the
+Couette case at N_x = 10 (160 particles, fixed dt = 1e-5 s, after 300
+steps), where the calls weigh most: minimum and median over ``--rounds``
+(at most 5) rounds of ``--steps`` steps.
 """
 import argparse
 import os
@@ -20,7 +23,7 @@ import numpy as np
 from mpi4py import MPI
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench import make_config  # noqa: E402
+from bench import make_config, step_dt  # noqa: E402
 
 from parsph import equations, neighbours, pass_data, rates  # noqa: E402
 from parsph.solver import Simulation  # noqa: E402
@@ -56,10 +59,27 @@ def per_call(fn, args, calls, rounds):
     return float(np.median(times))
 
 
+def per_step(steps, rounds):
+    """(minimum, median) CPU microseconds per step of the Couette case at N_x = 10."""
+    sim = Simulation(make_config(10, ["numerics.dt=1e-5"]), MPI.COMM_SELF)
+    for _ in range(300):
+        sim.compute_rates()
+        sim.advance(step_dt(sim))
+    times = []
+    for _ in range(rounds):
+        t0 = time.process_time()
+        for _ in range(steps):
+            sim.compute_rates()
+            sim.advance(step_dt(sim))
+        times.append((time.process_time() - t0) / steps * 1e6)
+    return min(times), float(np.median(times))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--calls", type=int, default=20000)
     ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--steps", type=int, default=2000, help="steps per round of the step timing")
     a = ap.parse_args()
     numba.set_num_threads(1)
     sim = Simulation(make_config(10), MPI.COMM_SELF)
@@ -69,6 +89,8 @@ def main():
         direct = per_call(fn, args, a.calls, a.rounds)
         version = per_call(rates.compiled(fn, *args), args, a.calls, a.rounds)  # after the dispatcher ran
         print(f"{name:18s} {direct:10.2f} {version:10.2f}", flush=True)
+    lo, mid = per_step(a.steps, min(a.rounds, 5))
+    print(f"a step at N_x = 10: {lo:.1f} us (minimum), {mid:.1f} us (median) CPU", flush=True)
     return 0
 
 
