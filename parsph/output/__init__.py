@@ -53,7 +53,7 @@ from .files import last_snapshot, output_files, read_profile, read_snapshot
 from .hdf5 import SERIAL_ENV, collective_dxpl, parallel_hdf5_available, read_rows, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS,
                      RESTART_FIELDS, UNITS)
-from .restart import _rows_in, read_particles, read_state
+from .restart import _rows_in, read_particles, read_state  # noqa: F401  (_rows_in: tests count the rows read)
 from .write import Frame, Output, output_name
 from .xdmf import snapshot_entry, write_xdmf, xdmf_grid
 
@@ -61,4 +61,4 @@ __all__ = ["BIN_ROWS", "FILE_DTYPES", "Frame", "MASS_UNITS", "MAX_BINS", "Output
            "PROFILE_FIELDS", "RESTART_FIELDS", "SERIAL_ENV", "UNITS", "collective_dxpl", "last_snapshot",
            "output_files", "output_name", "parallel_hdf5_available", "read_particles", "read_profile",
            "read_rows", "read_snapshot", "read_state", "snapshot_entry", "write_rows", "write_xdmf", "xdmf_grid",
-           "y_bins", "_rows_in"]
+           "y_bins"]
