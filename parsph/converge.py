@@ -31,7 +31,8 @@ import numpy as np
 
 from . import convergence
 from .converge_report import _jsonable, analyse, plot, print_report
-from .cli import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, UsageError, _agree, _fits_in_memory, _run_reporting, _Signals
+from .command_run import Signals, fits_in_memory, run_reporting
+from .usage import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, UsageError, agree
 
 # Numerics of the presets (docs/accuracy.md, "The frontier"), for --family; "given" is the run file's own.
 FAMILIES = {
@@ -155,7 +156,7 @@ def _plan(args):
 def cmd_converge(args):
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
-    signals = _Signals()
+    signals = Signals()
     try:
         return _converge(comm, args, signals)
     except UsageError as e:
@@ -182,9 +183,9 @@ def _converge(comm, args, signals):
     root = comm.rank == 0
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = args.out or os.path.join("out", stem + "_converge")
-    plan = _agree(comm, lambda: _plan(args))
+    plan = agree(comm, lambda: _plan(args))
     for fam, levels in plan:  # the finest level of each family must fit, before any level runs
-        _agree(comm, lambda: _fits_in_memory(comm, config.build(levels[-1][1], config.dumps(levels[-1][1]))))
+        agree(comm, lambda: fits_in_memory(comm, config.build(levels[-1][1], config.dumps(levels[-1][1]))))
 
     def say(msg):
         if root:
@@ -203,7 +204,7 @@ def _converge(comm, args, signals):
             rec["level"] = l
             runs.append(rec)
         nx0, raw0 = levels[0]
-        b = _agree(comm, lambda: bias_of(raw0))
+        b = agree(comm, lambda: bias_of(raw0))
         bias_rec = None
         if b is not None and abs(b) > BIAS_MIN:
             # the coarsest level again with k / (1 + b): its difference from the coarsest level is the
@@ -259,7 +260,7 @@ def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, w
         return rec
     if not warm[0]:
         try:  # a coarse level too small for the rank count is bad input on every rank alike
-            _agree(comm, lambda: _warm_up(comm, levels[0][1]))
+            agree(comm, lambda: _warm_up(comm, levels[0][1]))
         except GuardError as e:  # raised on every rank alike
             say(f"parsph converge: N_x = {levels[0][0]} ({fam}) is unstable: {e}")
             return EXIT_GUARD
@@ -274,7 +275,7 @@ def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, w
                     f.write(text)
             except OSError as e:
                 raise UsageError(f"cannot write {path}: {e.strerror}") from None
-    _agree(comm, write)
+    agree(comm, write)
     comm.Barrier()
     say(f"parsph converge: family {fam}, {what}: N_x = {nx}")
     timed = {}
@@ -284,7 +285,7 @@ def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, w
         return timed["t"]
     largs = Namespace(config=path, set=None, out=ldir, force=args.force, restart=None,
                       quiet=True, threads=args.threads, wrap_output=wrap)
-    code = _run_reporting(comm, largs, say, signals)
+    code = run_reporting(comm, largs, say, signals)
     if code != 0:
         say(f"parsph converge: N_x = {nx} ({fam}, {what}) ended with exit code {code}; stopping")
         return code

@@ -18,133 +18,20 @@ Between rebuilds particles stay where they are, even outside their slab:
 and displacements, and :meth:`SlabRing.refresh` one scalar (rho), each in
 one round of messages of sizes known in advance.
 
-Messages are float64 rows sent with mpi4py's buffer methods (no pickling).
+Messages are float64 rows sent with mpi4py's buffer methods (no pickling),
+packed and unpacked by the loops of :mod:`parsph.halo_rows`; the slab
+arithmetic (edges, rows, whether a rank count fits) is :mod:`parsph.slabs`.
 This module knows nothing of the equations, only of particle arrays and the
 cell grid.
 """
-import math
-
 import numpy as np
 from mpi4py import MPI
-from numba import njit
+
+from .halo_rows import pack_forward, pack_scalar, unpack_forward, unpack_scalar
+from .neighbours import CellBox
+from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
 
 TAG_UP, TAG_DOWN, TAG_MOVE_UP, TAG_MOVE_DOWN = 11, 12, 13, 14
-
-
-def slab_bounds(Ly, P):
-    """Edges of P equal slabs on [0, Ly): a pure function, checked serially."""
-    b = np.array([r * Ly / P for r in range(P + 1)])
-    b[-1] = Ly
-    return b
-
-
-class DecompositionError(Exception):
-    """A decomposition that cannot work (slabs too thin for the ghost rows)."""
-
-
-def _rows(bounds, side, ny):
-    """(first, last) cell rows touched by each slab (the last one conservatively, for rounding)."""
-    first = np.clip(np.floor(bounds[:-1] / side).astype(np.int64), 0, ny - 1)
-    last = np.clip(np.floor(bounds[1:] / side).astype(np.int64), 0, ny - 1)
-    return first, last
-
-
-def fits(Ly, P, side, ny, m):
-    """Whether every slab's ghost rows (M rows beyond its own) lie in its two neighbouring slabs."""
-    b = slab_bounds(Ly, P)
-    first, last = _rows(b, side, ny)
-    for r in range(P):
-        top = b[r + 2] if r + 2 <= P else b[(r + 2) - P] + Ly
-        bottom = b[r - 1] if r >= 1 else b[P - 1] - Ly
-        if (last[r] + m + 1) * side > top * (1 + 1e-12) + 1e-300 or (first[r] - m) * side < bottom - 1e-12 * Ly:
-            return False
-    return True
-
-
-def _rows_of_length(Ly, cutoff, m):
-    """(side, ny) of the y rows: ny = floor(m Ly / cutoff) rows tile [0, Ly) (neighbours.Axis)."""
-    ny = max(1, int(math.floor(m * Ly / cutoff * (1 + 1e-12))))
-    return Ly / ny, ny
-
-
-def max_ranks(Ly, cutoff, m):
-    """The largest rank count whose slabs are wide enough for the ghost rows of a list with this cutoff."""
-    side, ny = _rows_of_length(Ly, cutoff, m)
-    P = max(1, ny)
-    while P > 1 and not fits(Ly, P, side, ny, m):
-        P -= 1
-    return P
-
-
-def min_length(P, cutoff, m):
-    """The smallest Ly (3 significant digits, rounded up) whose P slabs fit their ghost rows."""
-    Ly = P * cutoff
-    while True:
-        shown = float(f"{Ly:.3g}")
-        if shown < Ly:
-            shown = float(f"{shown + 10 ** (math.floor(math.log10(Ly)) - 2):.3g}")
-        side, ny = _rows_of_length(shown, cutoff, m)
-        if fits(shown, P, side, ny, m):
-            return shown
-        Ly *= 1.001
-
-
-@njit(cache=True)
-def _pack_forward(pos, vel, disp, up, out_up, down, out_down):
-    """Rows (pos, vel, disp) of the owned particles ``up`` and ``down`` into the two send buffers."""
-    d = pos.shape[1]
-    for idx, out in ((up, out_up), (down, out_down)):
-        for r in range(idx.shape[0]):
-            i = idx[r]
-            for c in range(d):
-                out[r, c] = pos[i, c]
-                out[r, d + c] = vel[i, c]
-                out[r, 2 * d + c] = disp[i, c]
-
-
-@njit(cache=True)
-def _unpack_forward(below, above, start, shift_below, shift_above, pos, vel, disp,
-                    img_src, img_axis, img_shift, img_start):
-    """Ghost rows from below then above into place ``start``; y shifted; then the periodic images."""
-    d = pos.shape[1]
-    i = start
-    for rows, shift in ((below, shift_below), (above, shift_above)):
-        for r in range(rows.shape[0]):
-            for c in range(d):
-                pos[i, c] = rows[r, c]
-                vel[i, c] = rows[r, d + c]
-                disp[i, c] = rows[r, 2 * d + c]
-            pos[i, 1] += shift
-            i += 1
-    for q in range(img_src.shape[0]):
-        s = img_src[q]
-        j = img_start + q
-        for c in range(d):
-            pos[j, c] = pos[s, c]
-            vel[j, c] = vel[s, c]
-            disp[j, c] = disp[s, c]
-        pos[j, img_axis[q]] += img_shift[q]
-
-
-@njit(cache=True)
-def _pack_scalar(arr, up, out_up, down, out_down):
-    for r in range(up.shape[0]):
-        out_up[r] = arr[up[r]]
-    for r in range(down.shape[0]):
-        out_down[r] = arr[down[r]]
-
-
-@njit(cache=True)
-def _unpack_scalar(below, above, start, arr, img_src, img_start):
-    i = start
-    for r in range(below.shape[0]):
-        arr[i] = below[r]
-        i += 1
-    for r in range(above.shape[0]):
-        arr[i] = above[r]
-        i += 1
-    for q in range(img_src.shape[0]):
-        arr[img_start + q] = arr[img_src[q]]
 
 
 class SlabRing:
@@ -168,7 +55,7 @@ class SlabRing:
         self.lo, self.hi = self.bounds[self.rank], self.bounds[self.rank + 1]
         self.left = (self.rank - 1) % P
         self.right = (self.rank + 1) % P
-        first, last = _rows(self.bounds, self.side, self.ny)
+        first, last = cell_rows(self.bounds, self.side, self.ny)
         self.first_row, self.last_row = int(first[self.rank]), int(last[self.rank])
         self._rows_of = (first, last)
         # ghosts: counts from below and above, the owned places sent down and up, y shifts on arrival
@@ -236,19 +123,19 @@ class SlabRing:
         d = ps.dim
         width = 3 * d
         nu, nd = len(self.send_up), len(self.send_down)
-        _pack_forward(ps.pos, ps.vel, ps.disp, self.send_up, self._buf(("send up", "fwd"), nu, width),
+        pack_forward(ps.pos, ps.vel, ps.disp, self.send_up, self._buf(("send up", "fwd"), nu, width),
                       self.send_down, self._buf(("send down", "fwd"), nd, width))
         below, above = self._exchange("fwd", nu, nd, width)
-        _unpack_forward(below, above, ps.n_own, self.shift_below, self.shift_above, ps.pos, ps.vel, ps.disp,
+        unpack_forward(below, above, ps.n_own, self.shift_below, self.shift_above, ps.pos, ps.vel, ps.disp,
                         self.img_src, self.img_axis, self.img_shift, ps.n_own + self.n_below + self.n_above)
 
     def refresh(self, ps, arr):
         """One scalar per particle (``arr``, e.g. ps.rho) of the ghosts and images from their originals."""
         nu, nd = len(self.send_up), len(self.send_down)
-        _pack_scalar(arr, self.send_up, self._buf(("send up", "scalar"), nu, 1)[:, 0],
+        pack_scalar(arr, self.send_up, self._buf(("send up", "scalar"), nu, 1)[:, 0],
                      self.send_down, self._buf(("send down", "scalar"), nd, 1)[:, 0])
         below, above = self._exchange("scalar", nu, nd, 1)
-        _unpack_scalar(below[:, 0], above[:, 0], ps.n_own, arr, self.img_src,
+        unpack_scalar(below[:, 0], above[:, 0], ps.n_own, arr, self.img_src,
                        ps.n_own + self.n_below + self.n_above)
 
     # -- at a rebuild -------------------------------------------------------------------
@@ -398,7 +285,7 @@ class SlabRing:
         return coords
 
     def local_box(self, ps_dim):
-        """(lo, size, centre_lo, centre_hi) of this rank's local cell box in global integer cell coordinates.
+        """This rank's local cell box (a :class:`parsph.neighbours.CellBox`) in global integer cell coordinates.
 
         Rows: this slab's own rows and M more on each side; x and z: the whole
         grid, plus M image rows at each periodic end. Block centres: the slab's
@@ -424,4 +311,4 @@ class SlabRing:
                 c_lo.append(0)
                 c_hi.append(a.n - 1)
         as_int = lambda v: np.array(v, np.int64)  # noqa: E731
-        return as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi)
+        return CellBox(as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi))

@@ -34,11 +34,13 @@ Candidates beyond 2h add exact zeros (the kernel is branch-free and vanishes
 there). Only owned fluid particles receive sums; wall particles hold their
 density. These functions know nothing of MPI: ghosts are ordinary particles.
 
-The switches (pressure, viscosity, symmetric viscosity, walls, consistent
-pressure, three dimensions) are compile-time constants made by
-:func:`switch`: an empty tuple is off, ``(1,)`` is on, so each value is its
-own type, numba compiles one version per combination a scene uses, and a
-term switched off leaves no branch in the pair loop.
+A pass takes its data as a few named groups (:mod:`parsph.pass_data`):
+the neighbour list and the arrays indexed like it, the particles' fields,
+the run's numbers and the terms a scene uses (pressure, viscosity,
+symmetric viscosity, walls, consistent pressure, three dimensions) as
+compile-time switches, so that a term switched off leaves no branch in the
+pair loop. The threaded passes hand plain arguments on to their parallel
+kernels (numba's parallel loops misread the arrays of a named tuple).
 """
 import math
 
@@ -47,26 +49,22 @@ from numba import njit, prange
 from .closures import _modulus, half_modulus
 from .kernels import kernel_w_f
 from .particles import FLUID
-
-ON, OFF = (1,), ()
-# columns of the per-particle row the pair loops read (``fields``)
-VX, VY, VZ, THETA, INV_RHO, INV_THETA, PRESS = 0, 1, 2, 3, 4, 5, 6
-
-
-def switch(flag):
-    """A compile-time switch for the loops below."""
-    return ON if flag else OFF
+from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
 
 # ---- Eq. (3) ------------------------------------------------------------------------------------
 @njit(cache=True)
-def density_serial(order, pstart, pj, n, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp):
-    """Eq. (3) into ``rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``fp``.
+def density_serial(lst, parts, c, sw):
+    """Eq. (3) into ``lst.rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``lst.fp``.
 
     Particle order[a]'s pairs are pstart[a] .. pstart[a+1]-1 (its later
     neighbours). Its sum starts with its own term, gets the pairs of earlier
     particles as they come, then its own pairs: the pair order.
     """
+    order, pstart, pj, n, fp, rho_sum = lst.order, lst.pstart, lst.pj, lst.n, lst.fp, lst.rho_sum
+    pos, mass = parts.pos, parts.mass
+    kid, inv_h, norm, w0 = c.kid, c.inv_h, c.norm, c.w0
+    three_d = sw.three_d
     support2 = 4.0 / (inv_h * inv_h)
     for k in range(n):
         rho_sum[k] = mass[k] * w0
@@ -100,9 +98,10 @@ def density_serial(order, pstart, pj, n, pos, mass, kid, inv_h, norm, w0, three_
 
 
 @njit(cache=True, parallel=True)
-def density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp,
+def _density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp,
                      wp, need, offset, entry):
-    """As :func:`density_serial` for the particles that ``need`` sums, with threads: pairs, then a gather."""
+    """:func:`density_threaded` on plain arguments (numba's parallel loops read the arrays of named
+    tuples wrongly: a sum stayed at its first term)."""
     support2 = 4.0 / (inv_h * inv_h)
     for p in prange(npairs):
         i = pi[p]
@@ -132,6 +131,14 @@ def density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, no
         rho_sum[k] = s
 
 
+@njit(cache=True)
+def density_threaded(lst, parts, c, sw, gather):
+    """As :func:`density_serial` for the particles that ``need`` sums, with threads: pairs, then a gather."""
+    _density_threaded(lst.order, lst.pstart, lst.pi, lst.pj, lst.n, lst.npairs, parts.pos, parts.mass, c.kid,
+                      c.inv_h, c.norm, c.w0, sw.three_d, lst.rho_sum, lst.fp, gather.wp, lst.need, gather.offset,
+                      gather.entry)
+
+
 @njit(cache=True, inline="always")
 def pressure_factor(th, rho_i, G_a, G_b, consistent):
     """The per-particle factor of the pressure term at theta = rho_bar / rho_s.
@@ -146,14 +153,9 @@ def pressure_factor(th, rho_i, G_a, G_b, consistent):
 
 
 @njit(cache=True, parallel=True)
-def particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel,
+def _particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel,
                      theta, fields):
-    """Per particle of start..stop-1: rho (owned fluid: from ``rho_sum``), theta, and the row the pairs read.
-
-    ``fields[k]`` = (vx, vy, vz, theta, 1/rho_bar, 1/theta, pressure factor,
-    mu/k = theta): one row per particle, so that a pair reads one cache line
-    of its neighbour. Owned wall particles and halo copies keep their rho.
-    """
+    """:func:`particle_factors` on plain arguments (see :func:`_density_threaded`)."""
     dim = vel.shape[1]
     for k in prange(start, stop):
         if k < owned_stop and kind[k] == FLUID:
@@ -168,6 +170,18 @@ def particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_
         fields[k, INV_THETA] = 1.0 / th
         if len(pressure):
             fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent)
+
+
+@njit(cache=True)
+def particle_factors(lst, parts, c, sw, start, stop):
+    """Per particle of start..stop-1: rho (owned fluid: from ``rho_sum``), theta, and the row the pairs read.
+
+    ``fields[k]`` = (vx, vy, vz, theta, 1/rho_bar, 1/theta, pressure factor,
+    mu/k = theta): one row per particle, so that a pair reads one cache line
+    of its neighbour. Owned wall particles and halo copies keep their rho.
+    """
+    _particle_factors(parts.rho, lst.rho_sum, parts.kind, start, stop, parts.n_own, c.rho_s, c.G_a, c.G_b,
+                      sw.pressure, sw.consistent, parts.vel, parts.theta, lst.fields)
 
 
 # ---- Eq. (5) ------------------------------------------------------------------------------------
@@ -186,14 +200,17 @@ def _beta(xk, xo, L, beta_max):
 
 
 @njit(cache=True)
-def momentum_serial(order, pstart, pj, n, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
-                    k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc):
+def momentum_serial(lst, parts, c, sw):
     """Eq. (5) into ``acc`` of the owned particles (walls: zero), each pair once, in pair order.
 
     Pair (i, j): P (pressure) and V (viscous) are symmetric; i gets
     m_j (P r_ij + mu_i beta V v_ij), j the exact negative of m_i (P r_ij +
     mu_j beta V v_ij).
     """
+    order, pstart, pj, n, fp, fields, need = lst.order, lst.pstart, lst.pj, lst.n, lst.fp, lst.fields, lst.need
+    pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
+    rho_s, G_b, k_visc, L, beta_max, g = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g
+    pressure, viscosity, symmetric_mu, walls, consistent, three_d = sw
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for k in range(n):
@@ -292,11 +309,10 @@ def _finish_acc(acc, k, kind, g, three_d):
 
 
 @njit(cache=True, parallel=True)
-def momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
+def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
                       k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
                       Pp, Vp, offset, entry):
-    """As :func:`momentum_serial` with threads: P and V per pair, then a gather per particle in pair order,
-    with the same arithmetic, so that the result is the same bit for bit."""
+    """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`)."""
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for p in prange(npairs):
@@ -359,3 +375,13 @@ def momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fie
         if len(three_d):
             acc[k, 2] = az
         _finish_acc(acc, k, kind, g, three_d)
+
+
+@njit(cache=True)
+def momentum_threaded(lst, parts, c, sw, gather):
+    """As :func:`momentum_serial` with threads: P and V per pair, then a gather per particle in pair order,
+    with the same arithmetic, so that the result is the same bit for bit."""
+    _momentum_threaded(lst.order, lst.pstart, lst.pi, lst.pj, lst.n, lst.npairs, lst.fp, parts.pos, parts.mass,
+                       parts.kind, lst.fields, lst.need, parts.n_own, c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max,
+                       c.g, sw.pressure, sw.viscosity, sw.symmetric_mu, sw.walls, sw.consistent, sw.three_d,
+                       parts.acc, gather.Pp, gather.Vp, gather.offset, gather.entry)

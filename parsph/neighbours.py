@@ -34,6 +34,7 @@ Relative, not absolute, displacement is what counts: a plate that carries
 its neighbours along at V_w does not force a rebuild.
 """
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -81,6 +82,22 @@ class Grid:
                 np.array([x.n for x in a], np.int64), np.array([int(x.periodic) for x in a], np.int64))
 
 
+class CellBox(NamedTuple):
+    """A rank's local cell box, in global integer cell coordinates (``SlabRing.local_box``)."""
+    lo: np.ndarray         # the first cell per direction
+    size: np.ndarray       # cells per direction
+    centre_lo: np.ndarray  # the block centres of the validity test: local cells centre_lo .. centre_hi
+    centre_hi: np.ndarray
+
+
+class CellOrder(NamedTuple):
+    """The local particles sorted by cell (:func:`sort_by_cell`)."""
+    cell: np.ndarray   # local cell id per particle
+    order: np.ndarray  # order[a]: the particle at sorted place a
+    start: np.ndarray  # the places of cell c: start[c] .. start[c+1]-1
+    n: int             # particles sorted
+
+
 def grid_for(cfg, kernel):
     """The cell grid of a run: cutoff 2h + skin; without walls x spans [0, L), with walls the lattice columns."""
     cutoff = kernel.support * cfg.h + cfg.get("numerics.skin") * cfg.h
@@ -107,8 +124,9 @@ def cell_coords(pos, start, stop, origin, side, ncell, periodic, out):
 
 
 @njit(cache=True)
-def local_cells(coords, n, lo, size, cell):
-    """Local cell ids ((cz - lo_z) size_y + cy - lo_y) size_x + cx - lo_x, clamped into the local box."""
+def local_cells(coords, n, local, cell):
+    """Local cell ids ((cz - lo_z) size_y + cy - lo_y) size_x + cx - lo_x, clamped into the :class:`CellBox`."""
+    lo, size = local.lo, local.size
     for i in range(n):
         c = 0
         for d in (2, 1, 0):
@@ -121,6 +139,15 @@ def local_cells(coords, n, lo, size, cell):
         cell[i] = c
 
 
+@njit(cache=True, inline="always")
+def _starts(count, m):
+    """The counts of m buckets in ``count[1..m]`` become their first places (``count[b]``, in place, a prefix
+    sum); returns a copy of the first places, to be advanced as the buckets are filled."""
+    for b in range(m):
+        count[b + 1] += count[b]
+    return count[:m].copy()
+
+
 @njit(cache=True)
 def sort_by_cell(cell, gid, n, ncells, order, start):
     """Counting sort of particles 0..n-1 by cell, by gid inside a cell: ``order[a]`` is the a-th particle.
@@ -130,9 +157,7 @@ def sort_by_cell(cell, gid, n, ncells, order, start):
     start[:ncells + 1] = 0
     for i in range(n):
         start[cell[i] + 1] += 1
-    for c in range(ncells):
-        start[c + 1] += start[c]
-    fill = start[:ncells].copy()
+    fill = _starts(start, ncells)
     for i in range(n):
         c = cell[i]
         k = fill[c]
@@ -144,14 +169,16 @@ def sort_by_cell(cell, gid, n, ncells, order, start):
 
 
 @njit(cache=True)
-def build_pairs(pos, need, order, start, cell, n, size, cutoff, pstart, pi, pj):
-    """Unique pairs within ``cutoff`` in sorted order (see the module docstring); returns their count.
+def build_pairs(pos, need, cells, local, cutoff, pstart, pi, pj):
+    """Unique pairs within ``cutoff`` of the particles sorted into ``cells`` (:class:`CellOrder`) in the
+    :class:`CellBox` ``local``, in sorted order (see the module docstring); returns their count.
 
     The pairs of the particle at sorted place a (with the particles after it)
     are ``pstart[a] .. pstart[a+1]-1``; ``pi``/``pj`` hold their members.
     ``pi``/``pj`` must hold every pair and one more; if they are too short, the
     count is returned negative (minus the pairs found) and the caller grows them.
     """
+    cell, order, start, n, size = cells.cell, cells.order, cells.start, cells.n, local.size
     m = 2  # CELLS_PER_CUTOFF
     dim = pos.shape[1]
     cut2 = cutoff * cutoff
@@ -215,9 +242,7 @@ def build_entries(pi, pj, npairs, need, n, offset, entry):
             offset[pi[p] + 1] += 1
         if need[pj[p]]:
             offset[pj[p] + 1] += 1
-    for i in range(n):
-        offset[i + 1] += offset[i]
-    fill = offset[:n].copy()
+    fill = _starts(offset, n)
     for p in range(npairs):
         i = pi[p]
         j = pj[p]
@@ -230,8 +255,9 @@ def build_entries(pi, pj, npairs, need, n, offset, entry):
 
 
 @njit(cache=True)
-def block_spread(disp, n, cell, size, centre_lo, centre_hi, box, work):
-    """The largest diagonal of the displacement box of any block of (2M+1)^d cells centred in the given range.
+def block_spread(disp, cells, local, box, work):
+    """The largest diagonal of the displacement box of any block of (2M+1)^d cells centred in ``local``'s
+    centre range, for the particles sorted into ``cells``.
 
     ``box`` and ``work`` ((ncells, 6)) are scratch space: columns 0..dim-1
     hold the minima, 3..3+dim-1 the maxima. Empty cells count as
@@ -240,6 +266,8 @@ def block_spread(disp, n, cell, size, centre_lo, centre_hi, box, work):
     (2M+1)-wide neighbourhood is complete on this rank). A non-finite
     displacement makes the result infinite.
     """
+    n, cell = cells.n, cells.cell
+    size, centre_lo, centre_hi = local.size, local.centre_lo, local.centre_hi
     m = 2  # CELLS_PER_CUTOFF
     dim = disp.shape[1]
     nx, ny, nz = size[0], size[1], size[2]

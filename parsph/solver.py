@@ -35,7 +35,7 @@ from .output import Frame, read_particles
 from .particles import FLUID, Particles, state_maxima
 from .profile import bin_centres, bin_sums, errors
 from .rates import Rates
-from . import equations
+from . import pass_data
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
 GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
@@ -62,24 +62,7 @@ class Simulation:
         walls = self.scene.walls
         self._grid_params = self.grid.params()
         self.ring = SlabRing(comm, cfg.Ly, self.grid)
-        if state is None:
-            self.ps = Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
-        elif "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
-            p = read_particles(state["path"], comm, self.ring.lo, self.ring.hi)
-            exact = "ref" in p  # the solver's state as it held it: continue from the same neighbour list
-            self.ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"],
-                                            p["position_raw"] if exact else p["position"], p["velocity"])
-            if exact:
-                self.ps.add_field("ref")
-                self.ps.ref[:self.ps.n_own] = p["ref"]
-                self._restore = True
-            del p
-        else:  # a state given as arrays (id, kind, mass, position, velocity): this slab's rows
-            y = state["position"][:, 1]
-            mine = (y >= self.ring.lo) & (y < self.ring.hi)
-            self.ps = Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
-                                            state["mass"][mine], state["position"][mine],
-                                            state["velocity"][mine])
+        self.ps = self._particles(state)
         ps = self.ps
         ps.add_field("ref")  # positions at the last build of the neighbour list
         self.position_fields = ("pos",)
@@ -87,20 +70,12 @@ class Simulation:
             ps.add_field("pos0")
             ps.add_field("vel0")
             self.position_fields = ("pos", "pos0")
-        # Walls hold the density that Eq. (3) gives inside the initial lattice,
-        # so that the undisturbed lattice is in equilibrium next to a wall;
-        # scaled by the scene's wall_theta(x) / theta_0 where it has one (a
-        # function of x, which walls keep: a restart finds the same values).
-        self.rho_wall = cfg.mass * lattice_sum(self.kernel, cfg.h, cfg.spacing)
-        ps.rho[:ps.n] = self.rho_wall
-        if self.scene.wall_theta is not None:
-            wall = ps.kind[:ps.n] != FLUID
-            ps.rho[:ps.n][wall] *= self.scene.wall_theta(cfg, ps.pos[:ps.n][wall, 0]) / cfg.theta0
+        self._hold_wall_density()
         self.g = np.zeros(3)
         if self.scene.terms.body_force:
             self.g[:cfg.dim] = cfg.g
         self.period_x = 0.0 if walls else cfg.L
-        sw = equations.switch
+        sw = pass_data.switch
         switches = (sw(cfg.pressure), sw(cfg.viscosity), sw(cfg.get("numerics.viscosity_form") == "symmetric"),
                     sw(walls), sw(cfg.get("numerics.pressure_form") == "consistent"))
         self.step = 0 if state is None else int(state["attrs"]["step"])
@@ -121,6 +96,38 @@ class Simulation:
         self.force_rebuild = False
         self.stop = 0
         self.rebuilds = 0
+
+    def _particles(self, state):
+        """This slab's particles: from the scene, from a snapshot (``state["path"]``) or from arrays."""
+        cfg = self.cfg
+        if state is None:
+            return Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
+        if "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
+            p = read_particles(state["path"], self.comm, self.ring.lo, self.ring.hi)
+            exact = "ref" in p  # the solver's state as it held it: continue from the same neighbour list
+            ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"],
+                                       p["position_raw"] if exact else p["position"], p["velocity"])
+            if exact:
+                ps.add_field("ref")
+                ps.ref[:ps.n_own] = p["ref"]
+                self._restore = True
+            return ps
+        # a state given as arrays (id, kind, mass, position, velocity): this slab's rows
+        y = state["position"][:, 1]
+        mine = (y >= self.ring.lo) & (y < self.ring.hi)
+        return Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
+                                     state["mass"][mine], state["position"][mine], state["velocity"][mine])
+
+    def _hold_wall_density(self):
+        """Walls hold the density that Eq. (3) gives inside the initial lattice, so that the undisturbed
+        lattice is in equilibrium next to a wall; scaled by the scene's wall_theta(x) / theta_0 where it
+        has one (a function of x, which walls keep: a restart finds the same values)."""
+        cfg, ps = self.cfg, self.ps
+        self.rho_wall = cfg.mass * lattice_sum(self.kernel, cfg.h, cfg.spacing)
+        ps.rho[:ps.n] = self.rho_wall
+        if self.scene.wall_theta is not None:
+            wall = ps.kind[:ps.n] != FLUID
+            ps.rho[:ps.n][wall] *= self.scene.wall_theta(cfg, ps.pos[:ps.n][wall, 0]) / cfg.theta0
 
     # ---- the neighbour list ---------------------------------------------------------
     def _sync(self):
@@ -171,14 +178,14 @@ class Simulation:
         coords = np.zeros((ps.capacity, 3), np.int64)
         cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
-        box = ring.local_box(ps.dim)
-        order = self.rates.sort_owned(coords, ps.gid, n, box)
+        local = ring.local_box(ps.dim)
+        order = self.rates.sort_owned(coords, ps.gid, n, local)
         ps.reorder_owned(order)
         coords[:n] = coords[order]
         coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
-        self.rates.build(ps, coords, box)
+        self.rates.build(ps, coords, local)
         self._built = True
         self.rebuilds += 1
         self.timers["rebuild"] += time.perf_counter() - t0

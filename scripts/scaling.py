@@ -290,17 +290,17 @@ def main():
     records = []
     sys.path.insert(0, os.path.join(ROOT, "scripts"))
     import bench
-    from parsph import decomposition, kernels, neighbours
+    from parsph import kernels, neighbours, slabs
     for p in ranks:  # the slab limit, before any launch
         sets = a.set + ([f"domain.Ly={a.ly_per_rank * p}"] if a.mode == "weak" else [])
         for nx in a.nx:
             cfg = bench.make_config(nx, sets)
             grid = neighbours.grid_for(cfg, kernels.get_kernel(cfg.kernel, cfg.dim))
             cut = grid.cutoff
-            if not decomposition.fits(cfg.Ly, p, grid.axes[1].side, grid.axes[1].n, grid.m):
+            if not slabs.fits(cfg.Ly, p, grid.axes[1].side, grid.axes[1].n, grid.m):
                 print(f"scaling.py: {p} ranks do not fit N_x = {nx}, L_y = {cfg.Ly:g} m (slabs of at least "
                       f"about 1.5 x the cutoff {cut:g} m): at most "
-                      f"{decomposition.max_ranks(cfg.Ly, cut, neighbours.CELLS_PER_CUTOFF)}", file=sys.stderr)
+                      f"{slabs.max_ranks(cfg.Ly, cut, neighbours.CELLS_PER_CUTOFF)}", file=sys.stderr)
                 return 2
     for p in ranks:
         with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as tmp:

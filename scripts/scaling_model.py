@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from parsph import decomposition
+from parsph import slabs
 
 M = 2            # cell rows per cutoff (neighbours.CELLS_PER_CUTOFF)
 RC = 3.0         # cutoff 2h + skin in lattice steps: h = 1.25 dx, skin 0.4 h
@@ -86,13 +86,13 @@ class Case:
 
     @property
     def max_ranks(self):
-        return decomposition.max_ranks(self.Ly, self.cutoff, M)
+        return slabs.max_ranks(self.Ly, self.cutoff, M)
 
     def per_rank(self, P):
         """(own, ghosts, images, pairs) of the busiest rank with P slabs (rows counted at their centres)."""
-        side, ny_c = decomposition._rows_of_length(self.Ly, self.cutoff, M)
-        b = decomposition.slab_bounds(self.Ly, P)
-        first, last = decomposition._rows(b, side, ny_c)
+        side, ny_c = slabs.rows_of_length(self.Ly, self.cutoff, M)
+        b = slabs.slab_bounds(self.Ly, P)
+        first, last = slabs.cell_rows(b, side, ny_c)
         rows = lambda lo, hi: (math.ceil(hi / self.dx - 0.5 - 1e-9)  # noqa: E731
                                - math.ceil(lo / self.dx - 0.5 - 1e-9))
         worst = None

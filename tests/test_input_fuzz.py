@@ -15,7 +15,7 @@ Properties:
   exception (OverflowError, ZeroDivisionError, TypeError, ...) is a bug.
   A wrong type, a non-finite or out-of-range value, a missing required key
   or an unknown key must name exactly that key.
-* The memory check (``cli._fits_in_memory``) with a stubbed memory figure:
+* The memory check (``cli.fits_in_memory``) with a stubbed memory figure:
   random large Nx, Ly, Lz and h / dx in 2-D and 3-D on 1 to 4 nodes is
   refused (ConfigError on ``numerics.Nx`` with the particle count and the
   estimate in GB) exactly when the estimate exceeds 80% of the memory.
@@ -752,7 +752,7 @@ def test_cli_property_two_ranks(case, data):
 # ---- the memory check, with a stubbed memory figure ------------------------------------------------
 
 class _StubComm:
-    """Enough of a communicator for cli._fits_in_memory: ``allgather`` reports the stubbed
+    """Enough of a communicator for cli.fits_in_memory: ``allgather`` reports the stubbed
     memory of each of ``hosts`` nodes (several ranks of one node count once)."""
 
     def __init__(self, mem, hosts, ranks):
@@ -801,7 +801,7 @@ def test_memory_check_for_huge_particle_counts(data):
         mp.setitem(sys.modules, "mpi4py.MPI", _StubMPI)
         mp.setattr(mpi4py, "MPI", _StubMPI, raising=False)
         try:
-            cli._fits_in_memory(comm, cfg)
+            cli.fits_in_memory(comm, cfg)
         except ConfigError as e:
             COUNTS["memory check (stubbed memory), refused"] += 1
             assert need > 0.8 * mem * hosts, f"refused: {need:.3g} B of {mem * hosts:.3g} B: {e}"

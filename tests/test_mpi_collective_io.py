@@ -99,7 +99,7 @@ def test_collective_write_and_slab_reads(mpi_tmp_path, monkeypatch, serial):
 
     # read back on slabs shifted from the writer's; the last rank's is empty; a few rows per round
     # so that ranks need different numbers of rounds and the short ones read empty selections
-    monkeypatch.setattr(output, "READ_ROWS", (37, 37))
+    monkeypatch.setattr(output.restart, "READ_ROWS", (37, 37))
     P = comm.size
     cuts = [min(LY, (r + 0.37) * LY / P) if r else 0.0 for r in range(P)] + [LY]
     lo, hi = cuts[comm.rank], cuts[comm.rank + 1]

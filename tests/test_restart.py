@@ -225,12 +225,12 @@ def test_every_physics_key_is_covered():
 @launches
 @pytest.mark.parametrize("key", sorted(PHYSICS_CHANGES))
 def test_restart_refuses_a_physics_change(runs, key):
-    """In process (cli._restart_state): UsageError naming the key, for every physics key."""
+    """In process (cli.restart_state): UsageError naming the key, for every physics key."""
     from parsph import cli, config
     snap = runs("half", "paper", 1) / name(0)
     cfg = config.load(C.PAPER, [*FULL, f"{key}={PHYSICS_CHANGES[key]}"])
     with pytest.raises(cli.UsageError) as e:
-        cli._restart_state(cfg, str(snap))
+        cli.restart_state(cfg, str(snap))
     msg = str(e.value)
     assert "\n" not in msg
     assert msg.startswith(f"--restart: {key} = "), msg
@@ -242,7 +242,7 @@ def test_restart_accepts_output_and_checks_changes(runs, key):
     from parsph import cli, config
     snap = runs("half", "paper", 1) / name(0)
     cfg = config.load(C.PAPER, [*FULL, f"{key}={FREE_CHANGES[key]}"])
-    state = cli._restart_state(cfg, str(snap))
+    state = cli.restart_state(cfg, str(snap))
     assert int(state["attrs"]["step"]) == 200
 
 

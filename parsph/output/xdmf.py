@@ -1,0 +1,96 @@
+"""The ParaView sidecar: an XDMF file that shows the snapshots as a time series of points.
+
+Each output file with particles is one grid of the temporal collection;
+the profile and its error travel as an Information element, so that scripts
+can compare ParaView's view of the particles with parsph's profile.
+"""
+import json
+import os
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from .layout import FILE_DTYPES
+
+
+def snapshot_entry(name, time, snapshot, n, dim, field, scale, L, exact, err_max, err_rms):
+    """What the sidecar says of one output file (a dict; ``profile`` travels as an Information
+    element so that scripts can compare ParaView's view of the particles with parsph's profile)."""
+    return {"name": name, "time": float(time), "snapshot": bool(snapshot), "n": int(n), "dim": int(dim),
+            "profile": {"field": str(field), "scale": float(scale), "L": float(L), "bins": len(exact),
+                        "exact": [float(v) for v in exact], "err_max": float(err_max),
+                        "err_rms": float(err_rms)}}
+
+
+def entry_from_file(f, name):
+    """The sidecar entry of an output file already written (a restart continues the series)."""
+    a = f.attrs
+    field = str(a.get("error_field", "vy"))
+    g = f["profile"]
+    return snapshot_entry(name, a["time"], "particles" in f, a["n_particles"], a["dim"], field,
+                          a.get("error_scale", a["V_w"]), a["L"], g[field + "_exact"][()],
+                          g.attrs["err_max"], g.attrs["err_rms"])
+
+
+NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
+
+
+def _data_item(parent, fname, path, shape, dtype, column=None):
+    """An HDF DataItem for ``fname:path`` of ``shape``; ``column`` c: that column of an
+    (N, k) dataset, as Xdmf3's hyperslab syntax ``path|start:stride:count:dims``
+    (ParaView's default reader skips ItemType="HyperSlab" items: their type is unknown
+    before they are read)."""
+    dtype = np.dtype(dtype)
+    ntype = NUMBER_TYPES[dtype.kind]
+    if dtype.itemsize == 1:
+        ntype = {"Int": "Char", "UInt": "UChar"}[ntype]
+    text = f"{fname}:{path}"
+    dims = shape
+    if column is not None:
+        n, k = shape
+        text += f"|0 {column}:1 1:{n} 1:{n} {k}"
+        dims = (n,)
+    item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, dims)), NumberType=ntype,
+                         Precision=str(dtype.itemsize), Format="HDF")
+    item.text = text
+    return item
+
+
+def xdmf_grid(entry):
+    """One time step: N points with id, kind, theta, the velocity vector and its components."""
+    fname, n, dim = entry["name"], entry["n"], entry["dim"]
+    grid = ET.Element("Grid", Name=fname, GridType="Uniform")
+    ET.SubElement(grid, "Time", Value=repr(entry["time"]))
+    # Xdmf3 requires the Value attribute (text content aborts ParaView's default reader)
+    ET.SubElement(grid, "Information", Name="parsph.profile", Value=json.dumps(entry["profile"]))
+    ET.SubElement(grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(n), NodesPerElement="1")
+    geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
+    _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"])
+
+    def attribute(name, kind="Scalar"):
+        return ET.SubElement(grid, "Attribute", Name=name, AttributeType=kind, Center="Node")
+
+    for key in ("id", "kind", "theta"):
+        _data_item(attribute(key), fname, f"/particles/{key}", (n,), FILE_DTYPES[key])
+    if dim == 3:
+        _data_item(attribute("velocity", "Vector"), fname, "/particles/velocity", (n, 3), np.float64)
+    else:
+        _data_item(attribute("velocity", "Vector"), fname, "/particles/velocity_xyz", (n, 3), np.float32)
+    for c in range(dim):
+        _data_item(attribute("v" + "xyz"[c]), fname, "/particles/velocity", (n, dim), np.float64, column=c)
+    return grid
+
+
+def write_xdmf(path, entries):
+    """Rewrite the ParaView sidecar: one point set per snapshot, in time order (atomic rename)."""
+    root = ET.Element("Xdmf", Version="3.0")
+    series = ET.SubElement(ET.SubElement(root, "Domain"), "Grid", Name="particles", GridType="Collection",
+                           CollectionType="Temporal")
+    for entry in sorted(entries, key=lambda e: e["time"]):
+        if entry["snapshot"]:
+            series.append(xdmf_grid(entry))
+    ET.indent(root)
+    with open(path + ".part", "wb") as fh:
+        ET.ElementTree(root).write(fh, encoding="utf-8", xml_declaration=True)
+        fh.write(b"\n")
+    os.replace(path + ".part", path)

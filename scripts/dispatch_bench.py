@@ -1,0 +1,98 @@
+"""The cost of calling each numba pass: CPU time per call on an empty input (no particle, no pair).
+
+    .venv/bin/python scripts/dispatch_bench.py [--calls N] [--rounds R] [--steps N]
+
+With nothing to loop over, a call costs what numba's dispatcher does before
+and after the loop: typing the arguments, finding the compiled version,
+boxing the result. Each pass gets the arguments :class:`parsph.rates.Rates`
+gives it, from a small Couette case, with n = 0; it is called through its
+dispatcher and through the compiled version (:func:`parsph.rates.compiled`,
+as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
+calls each, in process CPU time. Then the time of whole steps of the
+Couette case at N_x = 10 (160 particles, fixed dt = 1e-5 s, after 300
+steps), where the calls weigh most: minimum and median over ``--rounds``
+(at most 5) rounds of ``--steps`` steps.
+"""
+import argparse
+import os
+import sys
+import time
+
+import numba
+import numpy as np
+from mpi4py import MPI
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench import make_config, step_dt  # noqa: E402
+
+from parsph import equations, neighbours, pass_data, rates  # noqa: E402
+from parsph.solver import Simulation  # noqa: E402
+
+
+def empty_calls(sim):
+    """name -> (function, arguments) of every pass, on an empty input."""
+    R, ps = sim.rates, sim.ps
+    gather = R._gather_arrays()
+    lst = R.list._replace(n=0, npairs=0)
+    parts = pass_data.particle_arrays(ps)._replace(n_own=0)
+    c, sw = R.consts, R.switches
+    empty_box = R.local._replace(size=np.zeros(3, np.int64), centre_hi=R.local.centre_lo - 1)
+    return {
+        "density_serial": (equations.density_serial, (lst, parts, c, sw)),
+        "density_threaded": (equations.density_threaded, (lst, parts, c, sw, gather)),
+        "particle_factors": (equations.particle_factors, (lst, parts, c, sw, 0, 0)),
+        "momentum_serial": (equations.momentum_serial, (lst, parts, c, sw)),
+        "momentum_threaded": (equations.momentum_threaded, (lst, parts, c, sw, gather)),
+        "block_spread": (neighbours.block_spread, (ps.disp, R.cells._replace(n=0), empty_box, R.box, R.work)),
+    }
+
+
+def per_call(fn, args, calls, rounds):
+    """Median over ``rounds`` of the CPU microseconds per call."""
+    fn(*args)
+    times = []
+    for _ in range(rounds):
+        t0 = time.process_time()
+        for _ in range(calls):
+            fn(*args)
+        times.append((time.process_time() - t0) / calls * 1e6)
+    return float(np.median(times))
+
+
+def per_step(steps, rounds):
+    """(minimum, median) CPU microseconds per step of the Couette case at N_x = 10."""
+    sim = Simulation(make_config(10, ["numerics.dt=1e-5"]), MPI.COMM_SELF)
+    for _ in range(300):
+        sim.compute_rates()
+        sim.advance(step_dt(sim))
+    times = []
+    for _ in range(rounds):
+        t0 = time.process_time()
+        for _ in range(steps):
+            sim.compute_rates()
+            sim.advance(step_dt(sim))
+        times.append((time.process_time() - t0) / steps * 1e6)
+    return min(times), float(np.median(times))
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--calls", type=int, default=20000)
+    ap.add_argument("--rounds", type=int, default=15)
+    ap.add_argument("--steps", type=int, default=2000, help="steps per round of the step timing")
+    a = ap.parse_args()
+    numba.set_num_threads(1)
+    sim = Simulation(make_config(10), MPI.COMM_SELF)
+    sim.compute_rates()
+    print(f"{'pass':18s} {'dispatcher':>10s} {'compiled':>10s}  [us per call, CPU, median]")
+    for name, (fn, args) in empty_calls(sim).items():
+        direct = per_call(fn, args, a.calls, a.rounds)
+        version = per_call(rates.compiled(fn, *args), args, a.calls, a.rounds)  # after the dispatcher ran
+        print(f"{name:18s} {direct:10.2f} {version:10.2f}", flush=True)
+    lo, mid = per_step(a.steps, min(a.rounds, 5))
+    print(f"a step at N_x = 10: {lo:.1f} us (minimum), {mid:.1f} us (median) CPU", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
