@@ -391,26 +391,34 @@ def dt_bounds(col):
     return lo, hi
 
 
-def refine(res, theta0, Re, nx=50, tol=1.1, span=64.0, max_runs=12):
-    """Bisect the column's time-step limit (failures at the physical failure time do not count)."""
-    for m in MULTS:
-        res.get(theta0, Re, nx, m)
+def search(res, theta0, Re, nx, down, up, tol, span, max_runs, source):
+    """Run the column at new multiples until its time-step limit lies within a ratio ``tol``:
+    ``down(hi)`` below a failure at the smallest multiple, ``up(lo)`` above the largest stable one,
+    bisection (geometric mean) between; stop beyond 1/span or span. Returns (stable, failing)."""
     for _ in range(max_runs):
         lo, hi = dt_bounds(column(res.rows, nx, theta0, Re))
-        if lo is None:                                   # fails at the smallest multiple: go down
-            m = (hi or MULTS[0]) / 4
+        if lo is None:
+            m = down(hi)
             if m < 1 / span:
                 break
-        elif hi is None:                                 # no failure up to here: go up
-            m = lo * 2
+        elif hi is None:
+            m = up(lo)
             if m > span:
                 break
         elif hi / lo > tol:
             m = math.sqrt(lo * hi)
         else:
             break
-        res.get(theta0, Re, nx, m, source="refine")
+        res.get(theta0, Re, nx, m, source=source)
     return dt_bounds(column(res.rows, nx, theta0, Re))
+
+
+def refine(res, theta0, Re, nx=50, tol=1.1, span=64.0, max_runs=12):
+    """Bisect the column's time-step limit (failures at the physical failure time do not count)."""
+    for m in MULTS:
+        res.get(theta0, Re, nx, m)
+    return search(res, theta0, Re, nx, lambda hi: (hi or MULTS[0]) / 4, lambda lo: lo * 2,
+                  tol, span, max_runs, "refine")
 
 
 def long_checks(res, out_dir, nx=50, ratio=2.0, extend=1.3, tol=0.1):
@@ -1023,22 +1031,8 @@ def bracket(res, theta0, Re, nx, tol=1.25, span=64.0, max_runs=14, seed=(None, N
     seeded = [m for m in seed if m is not None]
     for m in seeded or [1.0]:
         res.get(theta0, Re, nx, m, source="pred")
-    for _ in range(max_runs):
-        lo, hi = dt_bounds(column(res.rows, nx, theta0, Re))
-        if lo is None:
-            m = hi / 2
-            if m < 1 / span:
-                break
-        elif hi is None:
-            m = {1.0: 1.5, 1.5: 2.0}.get(lo, lo * 2)
-            if m > span:
-                break
-        elif hi / lo > tol:
-            m = math.sqrt(lo * hi)
-        else:
-            break
-        res.get(theta0, Re, nx, m, source="bracket")
-    return dt_bounds(column(res.rows, nx, theta0, Re))
+    return search(res, theta0, Re, nx, lambda hi: hi / 2, lambda lo: {1.0: 1.5, 1.5: 2.0}.get(lo, lo * 2),
+                  tol, span, max_runs, "bracket")
 
 
 def auto_row(nx, theta0, Re, integrator, outcome, first, term, k):
