@@ -299,6 +299,20 @@ def key_of(row):
             round(float(row["multiple"]), 9))
 
 
+def append_row(path, fields, row):
+    """Append one row to a CSV; a new file gets the header ``fields``, an existing one keeps its own
+    (older CSVs lack later columns, and the file names the integrator)."""
+    header = fields
+    if os.path.exists(path):
+        with open(path, newline="") as f:
+            header = next(csv.reader(f), None) or fields
+    with open(path, "a", newline="") as f:
+        w = csv.DictWriter(f, header, extrasaction="ignore")
+        if header is fields:
+            w.writeheader()
+        w.writerow(row)
+
+
 def load_rows(path):
     if not os.path.exists(path):
         return []
@@ -323,16 +337,7 @@ class Results:
         if key in self.done:
             return self.done[key]
         row = self.runner(theta0, Re, nx, multiple, source)
-        new = not os.path.exists(self.path)
-        header = self.fields
-        if not new:
-            with open(self.path, newline="") as f:
-                header = next(csv.reader(f))
-        with open(self.path, "a", newline="") as f:
-            w = csv.DictWriter(f, header, extrasaction="ignore")  # the file names the integrator
-            if new:
-                w.writeheader()
-            w.writerow(row)
+        append_row(self.path, self.fields, row)
         row = {k: str(v) for k, v in row.items()}
         self.rows.append(row)
         self.done[key] = row
@@ -446,12 +451,7 @@ def long_checks(res, out_dir, nx=50, ratio=2.0, extend=1.3, tol=0.1):
             row = run_case(t, Re, nx, m / ratio, steps=steps, source="long")
             ok = not row["stable"] and abs(row["t_done"] / phys[0] - 1.0) <= tol
             row.update({"t_phys": phys[0], "criterion_phys": phys[1], "confirmed": int(ok)})
-            new = not os.path.exists(path)
-            with open(path, "a", newline="") as f:
-                w = csv.DictWriter(f, FIELDS + ["t_phys", "criterion_phys", "confirmed"], extrasaction="ignore")
-                if new:
-                    w.writeheader()
-                w.writerow(row)
+            append_row(path, FIELDS + ["t_phys", "criterion_phys", "confirmed"], row)
             print(f"long check theta0={t:g} Re={Re:g}: failures by {phys[1]} at t = {phys[0]:.4g} s; "
                   f"dt/limit = {m / ratio:.3g} to {steps} steps: {row['first_failure'] or 'stable'} at "
                   f"t = {row['t_done']:.4g} s -> {'confirmed' if ok else 'NOT confirmed'}", flush=True)
@@ -1043,12 +1043,7 @@ def auto_row(nx, theta0, Re, integrator, outcome, first, term, k):
 
 
 def record_auto(path, row):
-    new = not os.path.exists(path)
-    with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, AUTO_FIELDS)
-        if new:
-            w.writeheader()
-        w.writerow(row)
+    append_row(path, AUTO_FIELDS, row)
     print(f"auto Nx={row['nx']} theta0={row['theta0']} Re={row['Re']} {row['integrator']}: first dt "
           f"{row['dt_first']:.3g} s ({row['term']}), {row['steps_done']} steps, "
           f"{'stable' if row['stable'] else 'UNSTABLE ' + row['fired'] + ' ' + row['message']}", flush=True)
