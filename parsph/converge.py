@@ -179,6 +179,7 @@ def _warm_up(comm, raw):
 
 
 def _converge(comm, args, signals):
+    """The study: check every family's finest level fits, run each family, report."""
     from . import config
     root = comm.rank == 0
     stem = os.path.splitext(os.path.basename(args.config))[0]
@@ -194,45 +195,58 @@ def _converge(comm, args, signals):
     scaling = getattr(args, "dt_scaling", None) or "dx2"
     results = []
     for fam, levels in plan:
-        warm = [False]
-        runs = []
-        for l, (nx, lr) in enumerate(levels):
-            rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr,
-                         f"level {l + 1}/{len(levels)}", os.path.join(out_dir, fam, f"nx{nx}"))
-            if not isinstance(rec, dict):
-                return rec
-            rec["level"] = l
-            runs.append(rec)
-        nx0, raw0 = levels[0]
-        b = agree(comm, lambda: bias_of(raw0))
-        bias_rec = None
-        if b is not None and abs(b) > BIAS_MIN:
-            # the coarsest level again with k / (1 + b): its difference from the coarsest level is the
-            # effect of the kernel's viscosity bias, which every level shares and no difference shows
-            braw = bias_raw(raw0, b)
-            bias_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx0, braw,
-                              f"bias run (k / (1 + b), b = {b:+.2e})", os.path.join(out_dir, fam, f"nx{nx0}_bias"))
-            if not isinstance(bias_rec, dict):
-                return bias_rec
-            bias_rec["bias"] = b
-        time_rec = None
-        nxf, rawf = levels[-1]
-        s0 = raw0["numerics"].get("dt_safety", 1.0)
-        if (args.target is not None and scaling == "dx2" and rawf["numerics"].get("dt") == "auto"
-                and rawf["numerics"]["dt_safety"] < s0 * (1 - 1e-6)):
-            # the finest level again at the base level's margin below its own limit: the difference is the
-            # time error's share, which --target uses to trade a larger dt against a finer N_x
-            traw = {s: dict(v) if isinstance(v, dict) else v for s, v in rawf.items()}
-            traw["numerics"]["dt_safety"] = s0
-            time_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nxf, traw,
-                              f"time-step run (dt_safety {s0:g})", os.path.join(out_dir, fam, f"nx{nxf}_dtlimit"))
-            if not isinstance(time_rec, dict):
-                return time_rec
-        results.append((fam, runs, bias_rec, time_rec))
+        res = _family(comm, args, signals, say, stem, out_dir, fam, levels, scaling)
+        if not isinstance(res, tuple):
+            return res
+        results.append(res)
+    return _report(comm, args, results, out_dir, scaling)
+
+
+def _family(comm, args, signals, say, stem, out_dir, fam, levels, scaling):
+    """A family's levels, its bias run and its time-step run: (fam, runs, bias, time), or an exit code."""
+    warm = [False]
+    runs = []
+    for l, (nx, lr) in enumerate(levels):
+        rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr,
+                     f"level {l + 1}/{len(levels)}", os.path.join(out_dir, fam, f"nx{nx}"))
+        if not isinstance(rec, dict):
+            return rec
+        rec["level"] = l
+        runs.append(rec)
+    nx0, raw0 = levels[0]
+    b = agree(comm, lambda: bias_of(raw0))
+    bias_rec = None
+    if b is not None and abs(b) > BIAS_MIN:
+        # the coarsest level again with k / (1 + b): its difference from the coarsest level is the
+        # effect of the kernel's viscosity bias, which every level shares and no difference shows
+        braw = bias_raw(raw0, b)
+        bias_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx0, braw,
+                          f"bias run (k / (1 + b), b = {b:+.2e})", os.path.join(out_dir, fam, f"nx{nx0}_bias"))
+        if not isinstance(bias_rec, dict):
+            return bias_rec
+        bias_rec["bias"] = b
+    time_rec = None
+    nxf, rawf = levels[-1]
+    s0 = raw0["numerics"].get("dt_safety", 1.0)
+    if (args.target is not None and scaling == "dx2" and rawf["numerics"].get("dt") == "auto"
+            and rawf["numerics"]["dt_safety"] < s0 * (1 - 1e-6)):
+        # the finest level again at the base level's margin below its own limit: the difference is the
+        # time error's share, which --target uses to trade a larger dt against a finer N_x
+        traw = {s: dict(v) if isinstance(v, dict) else v for s, v in rawf.items()}
+        traw["numerics"]["dt_safety"] = s0
+        time_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nxf, traw,
+                          f"time-step run (dt_safety {s0:g})", os.path.join(out_dir, fam, f"nx{nxf}_dtlimit"))
+        if not isinstance(time_rec, dict):
+            return time_rec
+    return fam, runs, bias_rec, time_rec
+
+
+def _report(comm, args, results, out_dir, scaling):
+    """Rank 0 analyses the levels and writes converge.json and the PNG; every rank gets its exit code."""
     code = 0
-    if root:  # files only; the other ranks wait for its exit code, so a failure here cannot hang them
+    if comm.rank == 0:  # files only; the other ranks wait for its exit code, so a failure here cannot hang them
         try:
-            report = analyse(results, args.ratio, args.target, getattr(args, "dt_scaling", None) or "dx2")
+            report = analyse(results, args.ratio, args.target, scaling)
             print_report(report)
             with open(os.path.join(out_dir, "converge.json"), "w") as f:
                 json.dump(_jsonable(report), f, indent=1)
