@@ -11,95 +11,106 @@ from . import convergence
 
 def analyse(results, ratio, target=None, dt_scaling="limit"):
     """Estimates per family and output time from the levels' outputs; the --target choice."""
-    from . import config
-    from .output import read_profile
-    from .scenes import error_scale
-    fams = []
-    for item in results:
-        fam, runs = item[0], item[1]
-        bias_rec = item[2] if len(item) > 2 else None
-        time_rec = item[3] if len(item) > 3 else None
-        profs = [read_profile(r["dir"]) for r in runs]
-        bprof = read_profile(bias_rec["dir"]) if bias_rec is not None else None
-        tprof = read_profile(time_rec["dir"]) if time_rec is not None else None
-        if tprof is not None:
-            dt_fine = config.loads(runs[-1]["run_file"]).dt
-            dt_lim = config.loads(time_rec["run_file"]).dt
-        cfg = config.loads(profs[0]["attrs"]["run_file"])
-        field = cfg.scene.error_field
-        period = None if cfg.scene.walls else cfg.L
-        xc = profs[0]["x"]
-        nxs = [r["Nx"] for r in runs]
-        times = []
-        for i, t in enumerate(profs[0]["time"]):
-            t = float(t)
-            scale = error_scale(cfg, t)
-            on_coarse = [profs[0][field][i]] + [convergence.to_coarse(p["x"], p[field][i], xc, period)
-                                                for p in profs[1:]]
-            bias = None if bprof is None else np.asarray(bprof[field][i]) - np.asarray(profs[0][field][i])
-            est = convergence.estimate(on_coarse, ratio, scale, bias=bias)
-            row = {"t": t, "scale": scale, "estimate": est.as_dict(),
-                   "cpu_s": [r["cpu_s"][i] for r in runs], "steps": [r["steps"][i] for r in runs]}
-            if cfg.scene.reference is not None and field in cfg.scene.reference(cfg, xc[:1], t):
-                ref = cfg.scene.reference(cfg, xc, t)[field]
-                ok = np.all(np.isfinite(on_coarse), axis=0)
-                row["true_max"] = [float(np.max(np.abs(f - ref)[ok]) / scale) for f in on_coarse]
-                row["true_rms"] = [float(np.sqrt(np.mean(((f - ref)[ok] / scale) ** 2))) for f in on_coarse]
-                # each level on its own bins, as `parsph check` reports it
-                row["check_max"] = [float(np.nanmax(np.abs(p[field][i] - p[field + "_exact"][i])) / scale)
-                                    for p in profs]
-            if tprof is not None:
-                pf = profs[-1]
-                dT = (convergence.to_coarse(pf["x"], tprof[field][i], xc, period)
-                      - convergence.to_coarse(pf["x"], pf[field][i], xc, period)) / scale
-                row["time_effect_max"] = float(np.nanmax(np.abs(dT)))
-                row["_T"] = dT[est._ok] / (dt_lim - dt_fine)
-            row["_est"] = est
-            times.append(row)
-        cautions = convergence.times_caution([r["estimate"]["order"] for r in times if r["estimate"]["asymptotic"]])
-        fam_rep = {"family": fam, "scene": cfg.scene.name, "field": field, "Nx": nxs,
-                   "particles": [r["particles"] for r in runs], "levels": runs, "times": times,
-                   "caution": cautions, "bias": None if bias_rec is None else bias_rec["bias"],
-                   "bias_run": bias_rec}
-        fam_rep["time_run"] = time_rec
-        if target is not None and time_rec is not None:
-            cfgs = [config.loads(r["run_file"]) for r in runs]
-            s0 = cfgs[0].values["numerics"]["dt_safety"]  # the base level's margin below its limit
-            measured = [(n, c.limits) for n, c in zip(nxs, cfgs)]
-            costs = [r["cpu_s"][-1] for r in runs]
-
-            def dt_limit(n):
-                lim = convergence.limit_at(n, measured)
-                return None if lim is None else s0 * lim
-            best = convergence.predict_setting(
-                nxs, [(r["t"], r["_est"], r["_T"]) for r in times], target, (dt_fine, dt_limit),
-                lambda n: convergence.cost_at(n, nxs, costs)[0])
-            if best[0] is None:
-                fam_rep["target"] = {"Nx": None, "why_not": best[1]}
-            else:
-                n, dt, lim, err, cost = best
-                safety = s0 * dt / lim
-                fam_rep["target"] = {"Nx": n, "why_not": None, "cpu_s": cost, "predicted_err": err,
-                                     "cost_exponent": convergence.cost_at(n, nxs, costs)[1],
-                                     "to_time": times[-1]["t"], "set": f"numerics.dt_safety={safety:.4g}"}
-        elif target is not None:
-            need, why = convergence.predict_nx(nxs, [(r["t"], r["_est"]) for r in times], target)
-            fam_rep["target"] = {"Nx": need, "why_not": why}
-            if need is not None:
-                cost, a = convergence.cost_at(need, nxs, [r["cpu_s"][-1] for r in runs])
-                fam_rep["target"].update(cpu_s=cost, cost_exponent=a, to_time=times[-1]["t"])
-                if dt_scaling == "dx2":  # the errors were measured with dt ~ dx^2: the setting needs that dt
-                    from .converge import level_raw
-                    lr = level_raw(tomllib.loads(runs[0]["run_file"]), need, "dx2")["numerics"]
-                    fam_rep["target"]["set"] = (f"numerics.dt_safety={lr['dt_safety']:.4g}" if lr["dt"] == "auto"
-                                                else f"numerics.dt={lr['dt']:.4g}")
-        fams.append(fam_rep)
+    fams = [_family_report(item, ratio, target, dt_scaling) for item in results]
     report = {"ratio": ratio, "target": target, "families": fams, "dt_scaling": dt_scaling}
     if target is not None:
         ok = [f for f in fams if f["target"]["Nx"] is not None]
         best = min(ok, key=lambda f: f["target"]["cpu_s"]) if ok else None
         report["choice"] = None if best is None else {"family": best["family"], **best["target"]}
     return report
+
+
+def _family_report(item, ratio, target, dt_scaling):
+    """One family: the estimate at every output time, and its setting for the target."""
+    from . import config
+    from .output import read_profile
+    fam, runs = item[0], item[1]
+    bias_rec = item[2] if len(item) > 2 else None
+    time_rec = item[3] if len(item) > 3 else None
+    profs = [read_profile(r["dir"]) for r in runs]
+    bprof = read_profile(bias_rec["dir"]) if bias_rec is not None else None
+    tprof = read_profile(time_rec["dir"]) if time_rec is not None else None
+    dts = None
+    if tprof is not None:  # the finest level's dt and the time-step run's
+        dts = (config.loads(runs[-1]["run_file"]).dt, config.loads(time_rec["run_file"]).dt)
+    cfg = config.loads(profs[0]["attrs"]["run_file"])
+    nxs = [r["Nx"] for r in runs]
+    times = [_time_row(cfg, i, float(t), profs, bprof, tprof, dts, runs, ratio)
+             for i, t in enumerate(profs[0]["time"])]
+    cautions = convergence.times_caution([r["estimate"]["order"] for r in times if r["estimate"]["asymptotic"]])
+    fam_rep = {"family": fam, "scene": cfg.scene.name, "field": cfg.scene.error_field, "Nx": nxs,
+               "particles": [r["particles"] for r in runs], "levels": runs, "times": times,
+               "caution": cautions, "bias": None if bias_rec is None else bias_rec["bias"],
+               "bias_run": bias_rec, "time_run": time_rec}
+    if target is not None:
+        fam_rep["target"] = _target_setting(runs, nxs, times, target, dts, dt_scaling)
+    return fam_rep
+
+
+def _time_row(cfg, i, t, profs, bprof, tprof, dts, runs, ratio):
+    """Output time i: the levels on the coarsest bins, the estimate, the true error where there is a
+    reference, and the time-step run's effect."""
+    from .scenes import error_scale
+    field = cfg.scene.error_field
+    period = None if cfg.scene.walls else cfg.L
+    xc = profs[0]["x"]
+    scale = error_scale(cfg, t)
+    on_coarse = [profs[0][field][i]] + [convergence.to_coarse(p["x"], p[field][i], xc, period)
+                                        for p in profs[1:]]
+    bias = None if bprof is None else np.asarray(bprof[field][i]) - np.asarray(profs[0][field][i])
+    est = convergence.estimate(on_coarse, ratio, scale, bias=bias)
+    row = {"t": t, "scale": scale, "estimate": est.as_dict(),
+           "cpu_s": [r["cpu_s"][i] for r in runs], "steps": [r["steps"][i] for r in runs]}
+    if cfg.scene.reference is not None and field in cfg.scene.reference(cfg, xc[:1], t):
+        ref = cfg.scene.reference(cfg, xc, t)[field]
+        ok = np.all(np.isfinite(on_coarse), axis=0)
+        row["true_max"] = [float(np.max(np.abs(f - ref)[ok]) / scale) for f in on_coarse]
+        row["true_rms"] = [float(np.sqrt(np.mean(((f - ref)[ok] / scale) ** 2))) for f in on_coarse]
+        # each level on its own bins, as `parsph check` reports it
+        row["check_max"] = [float(np.nanmax(np.abs(p[field][i] - p[field + "_exact"][i])) / scale)
+                            for p in profs]
+    if tprof is not None:
+        pf = profs[-1]
+        dT = (convergence.to_coarse(pf["x"], tprof[field][i], xc, period)
+              - convergence.to_coarse(pf["x"], pf[field][i], xc, period)) / scale
+        row["time_effect_max"] = float(np.nanmax(np.abs(dT)))
+        row["_T"] = dT[est._ok] / (dts[1] - dts[0])
+    row["_est"] = est
+    return row
+
+
+def _target_setting(runs, nxs, times, target, dts, dt_scaling):
+    """The cheapest N_x (and dt_safety) of this family predicted to meet the target at every time."""
+    from . import config
+    costs = [r["cpu_s"][-1] for r in runs]
+    if dts is not None:  # a time-step run: trade dt against N_x
+        cfgs = [config.loads(r["run_file"]) for r in runs]
+        s0 = cfgs[0].values["numerics"]["dt_safety"]  # the base level's margin below its limit
+        measured = [(n, c.limits) for n, c in zip(nxs, cfgs)]
+
+        def dt_limit(n):
+            lim = convergence.limit_at(n, measured)
+            return None if lim is None else s0 * lim
+        best = convergence.predict_setting(
+            nxs, [(r["t"], r["_est"], r["_T"]) for r in times], target, (dts[0], dt_limit),
+            lambda n: convergence.cost_at(n, nxs, costs)[0])
+        if best[0] is None:
+            return {"Nx": None, "why_not": best[1]}
+        n, dt, lim, err, cost = best
+        return {"Nx": n, "why_not": None, "cpu_s": cost, "predicted_err": err,
+                "cost_exponent": convergence.cost_at(n, nxs, costs)[1],
+                "to_time": times[-1]["t"], "set": f"numerics.dt_safety={s0 * dt / lim:.4g}"}
+    need, why = convergence.predict_nx(nxs, [(r["t"], r["_est"]) for r in times], target)
+    setting = {"Nx": need, "why_not": why}
+    if need is not None:
+        cost, a = convergence.cost_at(need, nxs, costs)
+        setting.update(cpu_s=cost, cost_exponent=a, to_time=times[-1]["t"])
+        if dt_scaling == "dx2":  # the errors were measured with dt ~ dx^2: the setting needs that dt
+            from .converge import level_raw
+            lr = level_raw(tomllib.loads(runs[0]["run_file"]), need, "dx2")["numerics"]
+            setting["set"] = (f"numerics.dt_safety={lr['dt_safety']:.4g}" if lr["dt"] == "auto"
+                              else f"numerics.dt={lr['dt']:.4g}")
+    return setting
 
 
 def _fmt(v, spec=".2e"):
