@@ -12,6 +12,7 @@
                                                  # against parsph.limits' prediction, + one dt = "auto" run each
     .venv/bin/python scripts/stability_map.py --pred all --nx 50 --auto-only   # auto only ("midpoint": its corner)
     .venv/bin/python scripts/stability_map.py --scene settling --pred all      # auto in the settling columns
+    .venv/bin/python scripts/stability_map.py --scene settling --pred all --bracket --tol 1.1   # + fixed dt, bracketed
     .venv/bin/python scripts/stability_map.py --longer 50:0.7:2000:40:20000    # one run of any length
     .venv/bin/python scripts/stability_map.py --ratios CSV... [--auto AUTO_CSV]  # measured / predicted per column
     .venv/bin/python scripts/stability_map.py --figures CSV...    # every figure against the prediction now
@@ -682,7 +683,8 @@ def main(argv=None):
                          "PRED_MULTS x the predicted limit (stability_pred_<integrator>.csv) and one dt = \"auto\" "
                          "run (stability_auto.csv); with --scene settling: auto in each column")
     ap.add_argument("--bracket", action="store_true",
-                    help="with --pred: bracket each column's limit to --tol (1, 1.5, 2, doubling or halving, bisection)")
+                    help="with --pred: bracket each column's limit to --tol (1, 1.5, 2, doubling or halving, bisection); "
+                         "with --scene settling too")
     ap.add_argument("--seed", nargs="*", default=[],
                     help="with --bracket: CSVs of earlier runs; a column whose bounds there lie beyond 1.5x (stable) or "
                          "3x (failing) the prediction starts its bracket from them")
@@ -1089,11 +1091,19 @@ def main_pred(a):
 
 
 def main_settling_auto(a):
-    """dt = "auto" in each settling column (SETTLING["steps"] steps of the predicted limit in time)."""
+    """dt = "auto" in each settling column (SETTLING["steps"] steps of the predicted limit in time); with
+    --bracket, first the column's fixed-dt limit bracketed to --tol against the prediction now
+    (stability_settling.csv in --out, as --scene settling writes it)."""
     auto_path = os.path.join(a.out, "stability_auto.csv")
     done = {(r["nx"], r["theta0"], r["integrator"]) for r in load_rows(auto_path)}
     nx = SETTLING["nx"]
+    res = Results(os.path.join(a.out, "stability_settling.csv"),
+                  runner=lambda t, r, nx_, m, source: run_settling_case(t, r, nx_, m, source),
+                  fields=SETTLING_FIELDS)
     for t in SETTLING["theta0"]:
+        if a.bracket:
+            lo, hi = bracket(res, t, settling_re(t, nx), nx, tol=a.tol)
+            print(f"bracketed settling theta0={t:g}: no time-step failure <= {lo}, one at {hi}", flush=True)
         if (str(nx), repr(t), "settling") in done:
             continue
         lim = settling_limits(t, nx)
