@@ -27,8 +27,11 @@ from numba import njit
 
 from numba.core.registry import CPUDispatcher
 
-from parsph import config, decomposition, equations, integrate, neighbours, particles, profile, rates, solver
-from parsph.solver import PHASES, Simulation
+from parsph.setup import config
+from parsph.parallel import slab_ring
+from parsph.sph import equations, integrators, neighbours, particles, profiles, rates
+from parsph.simulation import solver
+from parsph.simulation.solver import PHASES, Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -57,7 +60,7 @@ class NumbaClock:
         self._rates = rates
         rates.wrap = self._wrap
         rates._passes = {name: self._wrap(fn) for name, fn in rates._passes.items()}
-        for mod in (equations, integrate, neighbours, particles, decomposition, profile, rates, solver):
+        for mod in (equations, integrators, neighbours, particles, slab_ring, profiles, rates, solver):
             for name, obj in list(vars(mod).items()):
                 if isinstance(obj, CPUDispatcher):
                     self._saved.append((mod, name, obj))

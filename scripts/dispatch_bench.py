@@ -4,9 +4,9 @@
 
 With nothing to loop over, a call costs what numba's dispatcher does before
 and after the loop: typing the arguments, finding the compiled version,
-boxing the result. Each pass gets the arguments :class:`parsph.rates.Rates`
+boxing the result. Each pass gets the arguments :class:`parsph.sph.rates.Rates`
 gives it, from a small Couette case, with n = 0; it is called through its
-dispatcher and through the compiled version (:func:`parsph.rates.compiled`,
+dispatcher and through the compiled version (:func:`parsph.sph.rates.compiled`,
 as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
 calls each, in process CPU time. Then the time of whole steps of the
 Couette case at N_x = 10 (160 particles, fixed dt = 1e-5 s, after 300
@@ -25,8 +25,8 @@ from mpi4py import MPI
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench import make_config, step_dt  # noqa: E402
 
-from parsph import equations, neighbours, pass_data, rates  # noqa: E402
-from parsph.solver import Simulation  # noqa: E402
+from parsph.sph import equations, neighbours, pass_data, rates  # noqa: E402
+from parsph.simulation.solver import Simulation  # noqa: E402
 
 
 def empty_calls(sim):

@@ -103,7 +103,8 @@ def raw_rates(d, nbytes):
 
 def throughput(args):
     from mpi4py import MPI
-    from parsph import config, output
+    from parsph.setup import config
+    from parsph import output
     comm = MPI.COMM_WORLD
     P, rank = comm.size, comm.rank
     Ly, N = ly_for(args.n)

@@ -109,7 +109,7 @@ class CountingComm:
 
 
 class MPIWaits:
-    """Stands in for the mpi4py.MPI module inside parsph.decomposition: Request.Waitall counts as blocked."""
+    """Stands in for the mpi4py.MPI module inside parsph.parallel.slab_ring: Request.Waitall counts as blocked."""
 
     def __init__(self, mpi):
         self._mpi = mpi
@@ -140,13 +140,15 @@ def worker(a):
     from mpi4py import MPI
     sys.path.insert(0, os.path.join(ROOT, "scripts"))
     import bench
-    from parsph import decomposition, rates, solver
+    from parsph.parallel import slab_ring
+    from parsph.sph import rates
+    from parsph.simulation import solver
 
     numba.set_num_threads(a.threads)
     world = MPI.COMM_WORLD
     # the solver's phase timers in CPU seconds (process_time) instead of wall seconds
     solver.time = rates.time = SimpleNamespace(perf_counter=time.process_time)
-    waits = decomposition.MPI = MPIWaits(MPI)
+    waits = slab_ring.MPI = MPIWaits(MPI)
     runs = []
     for nx in a.nx:
         comm = CountingComm(world)
@@ -290,7 +292,9 @@ def main():
     records = []
     sys.path.insert(0, os.path.join(ROOT, "scripts"))
     import bench
-    from parsph import kernels, neighbours, slabs
+    from parsph.physics import kernels
+    from parsph.sph import neighbours
+    from parsph.parallel import slabs
     for p in ranks:  # the slab limit, before any launch
         sets = a.set + ([f"domain.Ly={a.ly_per_rank * p}"] if a.mode == "weak" else [])
         for nx in a.nx:

@@ -37,7 +37,7 @@ import math
 
 import numpy as np
 
-from parsph import slabs
+from parsph.parallel import slabs
 
 M = 2            # cell rows per cutoff (neighbours.CELLS_PER_CUTOFF)
 RC = 3.0         # cutoff 2h + skin in lattice steps: h = 1.25 dx, skin 0.4 h

@@ -9,7 +9,7 @@
     .venv/bin/python scripts/stability_map.py --scene settling [--refine]  # the granular column (gravity on)
     .venv/bin/python scripts/stability_map.py --damping --nx 200,400   # margin of the damping constant
     .venv/bin/python scripts/stability_map.py --pred all --nx 200 --bracket --tol 1.1   # bracket every column
-                                                 # against parsph.limits' prediction, + one dt = "auto" run each
+                                                 # against parsph.physics.limits' prediction, + one dt = "auto" run each
     .venv/bin/python scripts/stability_map.py --pred all --nx 50 --auto-only   # auto only ("midpoint": its corner)
     .venv/bin/python scripts/stability_map.py --scene settling --pred all      # auto in the settling columns
     .venv/bin/python scripts/stability_map.py --scene settling --pred all --bracket --tol 1.1   # + fixed dt, bracketed
@@ -17,7 +17,7 @@
     .venv/bin/python scripts/stability_map.py --ratios CSV... [--auto AUTO_CSV]  # measured / predicted per column
     .venv/bin/python scripts/stability_map.py --figures CSV...    # every figure against the prediction now
 
-Every run is the real solver (``parsph.solver.Simulation.run``, the loop that
+Every run is the real solver (``parsph.simulation.solver.Simulation.run``, the loop that
 ``parsph run`` drives) on ``MPI.COMM_SELF`` in this one process: the flow is
 1-D in x, so a short periodic box ``L_y = 8 h`` (10 rows) carries it and the
 slab decomposition plays no part. Each run takes ``STEPS`` = 2,000 steps of a
@@ -25,8 +25,8 @@ fixed
 
     dt = multiple * predicted limit,  predicted limit = min(von Neumann limit of the integrator, 0.5 h / V_w)
 
-(``parsph.limits``, as config.build takes it; ``numerics.allow_unstable_dt = true`` lets the
-multiples above 1 run). The package's guard (``parsph.guards``) runs every
+(``parsph.physics.limits``, as config.build takes it; ``numerics.allow_unstable_dt = true`` lets the
+multiples above 1 run). The package's guard (``parsph.simulation.guards``) runs every
 step (``checks.every = 1``) with the thresholds below and stops the run; an
 observer (``Simulation.run(observe=...)``, the ``Recorder`` here) records the
 four criteria separately at every step from ``Simulation.particles()``, and a
@@ -72,7 +72,7 @@ column's first transient, not its settling: that takes 0.4 s), and at least
 SETTLING["min_steps"] steps. Criteria: non-finite; wall = a fluid particle
 below the floor or above the lid; theta = max |theta - theta_eq(x)| /
 theta_eq(x) > THETA_FRAC against the settling equilibrium
-(parsph.analytic.settling_equilibrium, the form the run's pressure term
+(parsph.physics.analytic.settling_equilibrium, the form the run's pressure term
 converges to: scenes/settling.wall_theta); energy = fluid kinetic energy above
 the scene's own bound (settling.max_kinetic_energy: M g L). The recorder stops a
 run at its first failure (these are not the guard's criteria). Output: stability_settling.csv and
@@ -97,14 +97,14 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 from mpi4py import MPI  # noqa: E402
 
-from parsph import config  # noqa: E402
-from parsph import limits  # noqa: E402
-from parsph import analytic  # noqa: E402
-from parsph.scenes import settling as settling_scene  # noqa: E402
-from parsph.closures import modulus  # noqa: E402
-from parsph.particles import FLUID  # noqa: E402
-from parsph.guards import GuardError  # noqa: E402
-from parsph.solver import Simulation  # noqa: E402
+from parsph.setup import config  # noqa: E402
+from parsph.physics import limits  # noqa: E402
+from parsph.physics import analytic  # noqa: E402
+from parsph.setup.scenes import settling as settling_scene  # noqa: E402
+from parsph.physics.closures import modulus  # noqa: E402
+from parsph.sph.particles import FLUID  # noqa: E402
+from parsph.simulation.guards import GuardError  # noqa: E402
+from parsph.simulation.solver import Simulation  # noqa: E402
 
 PAPER = ROOT / "run" / "couette_paper.toml"
 THETAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.6, 0.64, 0.7)
@@ -146,7 +146,7 @@ def base_raw():
 
 
 def physics(theta0, Re, nx, raw=None, integrator="paper"):
-    """k, h, the predicted limits of one (theta_0, Re, N_x) (parsph.limits, as config.build takes them:
+    """k, h, the predicted limits of one (theta_0, Re, N_x) (parsph.physics.limits, as config.build takes them:
     the von Neumann limit of the integrator, advection with V_w), the binding term, and 2 nu / c_eff^2."""
     raw = raw or base_raw()
     L, rho_s = raw["domain"]["L"], raw["material"]["rho_s"]
@@ -229,7 +229,7 @@ class CriterionFailed(RuntimeError):
     """A recorder's own criterion stopped the run (the settling column's; the guard does not check them)."""
 
 
-# the package's checks (parsph.guards.CHECKS, GuardResult.code) by the criterion they measure
+# the package's checks (parsph.simulation.guards.CHECKS, GuardResult.code) by the criterion they measure
 GUARD_NAMES = {1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}
 
 
@@ -534,7 +534,7 @@ def plot(rows, outdir, nx_list, tag=""):
         fig.legend(handles=handles, loc="lower center", ncol=6, fontsize=7.5, frameon=False)
         what = f"{tag} integrator, " if tag else ""
         fig.suptitle(f"Couette stability, N_x = {nx}, {what}{STEPS} steps of a fixed dt; y: dt / the limit of "
-                     "parsph.limits",
+                     "parsph.physics.limits",
                      fontsize=10)
         fig.tight_layout(rect=(0, 0.1, 1, 0.95))
         png = os.path.join(outdir, f"stability_map{'_' + tag if tag else ''}_nx{nx}.png")
@@ -567,7 +567,7 @@ def plot(rows, outdir, nx_list, tag=""):
         axes[0][0].set_ylabel("dt [s]")
         axes[0][0].legend(fontsize=8)
         fig.suptitle("Largest dt without a time-step failure in 2,000 steps (points) against the predicted "
-                     "limit of parsph.limits (dashed), paper integrator", fontsize=9)
+                     "limit of parsph.physics.limits (dashed), paper integrator", fontsize=9)
         fig.tight_layout()
         png = os.path.join(outdir, "stability_dt.png")
         fig.savefig(png, dpi=80)
@@ -580,7 +580,7 @@ _PRED = {}
 
 
 def predicted(integrator, nx, theta0, Re):
-    """parsph.limits' prediction now for a Couette column (memoised)."""
+    """parsph.physics.limits' prediction now for a Couette column (memoised)."""
     key = (integrator, nx, round(theta0, 6), round(Re, 6))
     if key not in _PRED:
         k, h, lim, term, _ = physics(theta0, Re, nx, integrator=integrator)
@@ -804,7 +804,7 @@ def settling_raw():
 
 
 def settling_limits(theta0, nx, theta=None):
-    """The predicted limits of the column at theta (default theta_0): parsph.limits as config.build
+    """The predicted limits of the column at theta (default theta_0): parsph.physics.limits as config.build
     takes them (velocity scale sqrt(g h), |g|, the run file's integrator and pressure form)."""
     raw = settling_raw()
     L = raw["domain"]["L"]
@@ -1018,7 +1018,7 @@ def main_damping(a, theta0=0.7, Re=57.0):
     return 0
 
 
-# ---- the prediction of parsph.limits against runs (--pred, --ratios) ---------------------------------
+# ---- the prediction of parsph.physics.limits against runs (--pred, --ratios) ---------------------------------
 PRED_MULTS = (1.0, 1.5, 2.0)
 AUTO_FIELDS = ["nx", "theta0", "Re", "integrator", "k", "dt_first", "term", "steps_done", "t_done", "stable",
                "fired", "message", "wall_s", "commit"]
@@ -1154,7 +1154,7 @@ def columns_of(path, cols=None):
 
 def main_ratios(a):
     """Per (integrator, N_x, theta_0, Re): the measured bounds over every run in the CSVs (absolute dt)
-    divided by parsph.limits' prediction now (stability_ratios.csv); the settling column's runs (a file named
+    divided by parsph.physics.limits' prediction now (stability_ratios.csv); the settling column's runs (a file named
     *settling*) as integrator 'settling'. With --auto: each column's dt = "auto" run, stable or not,
     and its mean step (t / steps) over the prediction and over the largest measured stable dt."""
     cols = {}

@@ -44,7 +44,7 @@ ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 sys.path.insert(0, ROOT)
 
-from parsph.kernel_analysis import sheared_lattice_bias, viscosity_bias  # noqa: E402
+from parsph.physics.lattice_sums import sheared_lattice_bias, viscosity_bias  # noqa: E402
 from sweep_run import DEFAULTS, TIMES, build_config, choices, run_id  # noqa: E402
 
 PAPER_CASE = {"Nx": 50, "dt": 1e-5, "t_end": 0.5}  # Table 1: h = 1.25 dx, cubic, Eqs. (6)-(7), dt = 1e-5 s
@@ -147,7 +147,7 @@ def estimate_cpu(run):
     nx, hr = c["Nx"], c["h_over_dx"]
     L, nu, v = 0.01, 1.75e-4, 1.0
     h = hr * L / nx
-    if c["dt"] == "auto":  # parsph.limits at theta_0: advection, and the derived viscous limit (~0.32 h^2 / nu)
+    if c["dt"] == "auto":  # parsph.physics.limits at theta_0: advection, and the derived viscous limit (~0.32 h^2 / nu)
         dt = c["dt_safety"] * min(0.5 * h / v, 0.32 * h * h / nu)
     else:
         dt = float(c["dt"])
@@ -235,7 +235,7 @@ def execute(grid, out_dir, jobs, rerun, max_cost, snapshot=True):
 # ---- analysis -------------------------------------------------------------------------------
 def nu_eff_errors(rec, out_dir):
     """Max error at each output time against Eq. (8) evaluated with nu_eff instead of nu."""
-    from parsph.analytic import couette_velocity
+    from parsph.physics.analytic import couette_velocity
     path = os.path.join(out_dir, "profiles", rec["id"] + ".npz")
     if not os.path.exists(path):
         return {}

@@ -27,7 +27,8 @@ def main():
     args = ap.parse_args()
     name = os.path.splitext(os.path.basename(args.config))[0]
     out = args.out or os.path.join(ROOT, "results", "presets", name)
-    from parsph import cli, solver
+    from parsph import cli
+    from parsph.simulation import solver
     from parsph.output import read_profile
     loop = {}
     run = solver.Simulation.run

@@ -37,9 +37,9 @@ if "--code" in sys.argv:  # a snapshot of parsph (scripts/sweep.py makes one), a
 
 from mpi4py import MPI  # noqa: E402
 
-from parsph import config  # noqa: E402
-from parsph.particles import FLUID  # noqa: E402
-from parsph.solver import GuardError, Simulation  # noqa: E402
+from parsph.setup import config  # noqa: E402
+from parsph.sph.particles import FLUID  # noqa: E402
+from parsph.simulation.solver import GuardError, Simulation  # noqa: E402
 
 TIMES = (0.01, 0.05, 0.2, 0.5)
 DEFAULTS = {"h_over_dx": 1.25, "kernel": "cubic_spline", "integrator": "paper", "dt": "auto",

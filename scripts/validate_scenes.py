@@ -27,12 +27,12 @@ import warnings
 import numpy as np
 from mpi4py import MPI
 
-from parsph import config
-from parsph.analytic import settling_equilibrium
+from parsph.setup import config
+from parsph.physics.analytic import settling_equilibrium
 from parsph.output import output_files, read_profile, read_snapshot
-from parsph.particles import FLUID
-from parsph.scenes import error_scale
-from parsph.solver import Simulation
+from parsph.sph.particles import FLUID
+from parsph.setup.scenes import error_scale
+from parsph.simulation.solver import Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUN = os.path.join(ROOT, "run")

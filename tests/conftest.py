@@ -39,7 +39,7 @@ def run_cli(*args, timeout=60):
 
 
 def paper_raw():
-    """The paper run file as a raw dict (to edit before :func:`parsph.config.build`)."""
+    """The paper run file as a raw dict (to edit before :func:`parsph.setup.config.build`)."""
     with open(PAPER_TOML, "rb") as f:
         return tomllib.load(f)
 
@@ -47,7 +47,7 @@ def paper_raw():
 @pytest.fixture
 def paper_cfg():
     """Factory: ``paper_cfg("numerics.dt=2e-5", ...)`` loads the paper case with overrides."""
-    from parsph import config
+    from parsph.setup import config
 
     def make(*overrides):
         return config.load(str(PAPER_TOML), list(overrides))

@@ -15,7 +15,7 @@ the order the numerics should have:
   exceeds 6 only for the fourth wall row (d_j = 7dx/2), which lies 4dx = 2h away, on the
   edge of the support; so the cap is inactive on the lattice, the ghosts extrapolate
   linearly, and what is left is the kernel's smoothing error, O(h^2) = O(dx^2) at fixed
-  h/dx. The lattice's viscosity bias (nu_eff / nu at fixed h/dx, parsph.kernel_analysis)
+  h/dx. The lattice's viscosity bias (nu_eff / nu at fixed h/dx, parsph.physics.lattice_sums)
   does not fall with dx: it is a floor, and the test checks that the error at N_x = 40 is
   still at least twice the floor's.
 
@@ -35,10 +35,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.analytic import couette_velocity
-from parsph.kernel_analysis import viscosity_bias
-from parsph.solver import Simulation
+from parsph.setup import config
+from parsph.physics.analytic import couette_velocity
+from parsph.physics.lattice_sums import viscosity_bias
+from parsph.simulation.solver import Simulation
 
 from conftest import paper_raw
 

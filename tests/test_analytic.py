@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from parsph.analytic import couette_terms, couette_velocity, couette_velocity_images
+from parsph.physics.analytic import couette_terms, couette_velocity, couette_velocity_images
 
 NU, L, VW = 1.75e-4, 0.01, 1.0  # Table 1
 

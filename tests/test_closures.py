@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from parsph import closures
+from parsph.physics import closures
 
 
 def test_modulus_at_theta0():
@@ -58,7 +58,7 @@ def test_paper_derived(paper_cfg):
 
 
 def test_paper_stability_limits(paper_cfg):
-    from parsph import limits
+    from parsph.physics import limits
     cfg = paper_cfg()
     # Monaghan's limits with the closure's c (consistent form) and with the paper form's c_eff (PHYSICS.md)
     cons = limits.classical_limits(cfg.h, cfg.theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="consistent")
@@ -80,7 +80,7 @@ def test_paper_stability_limits(paper_cfg):
                                           (0.64, 4.3e-6), (0.70, 2.3e-6)])
 def test_cfl_limits_table(paper_cfg, theta0, dtcfl):
     """PHYSICS.md "Extremes worth probing": CFL limits with c_eff, k = 1, V_w = 1 (printed to 2 digits)."""
-    from parsph import limits
+    from parsph.physics import limits
     cfg = paper_cfg(f"material.theta0={theta0}", "numerics.dt=\"auto\"")
     cfl = limits.classical_limits(cfg.h, theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="paper")["cfl"]
     assert float(f"{cfl:.2g}") == dtcfl

@@ -1,4 +1,4 @@
-"""The convergence estimator (parsph/convergence.py) on synthetic sequences whose order and
+"""The convergence estimator (parsph/studies/estimates.py) on synthetic sequences whose order and
 errors are known by construction, independent of the solver; and one short real scene
 through `parsph converge` against Eq. (8)."""
 import json
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from parsph import convergence as cv
+from parsph.studies import estimates as cv
 
 L = 0.01
 
@@ -291,7 +291,7 @@ def test_kernel_bias_vanishes_as_the_lattice_sum_becomes_the_integral():
     assert biases[0] > biases[1] > biases[2] and biases[2] < 1e-4
     assert 1e-3 < cv.kernel_bias("cubic_spline", 1.25) < 3e-2
     # in 3-D too: the density sum of the same lattice is 1 within 0.2 %, and b vanishes as h / dx grows
-    from parsph.kernel_analysis import sheared_lattice_sums
+    from parsph.physics.lattice_sums import sheared_lattice_sums
     assert sheared_lattice_sums("wendland_c2", 2.0, 0.3, dim=3)[1] == pytest.approx(1.0, abs=2e-3)
     b3 = [abs(cv.kernel_bias("wendland_c2", hr, dim=3, offsets=8)) for hr in (1.25, 2.0, 3.0)]
     assert b3[0] > b3[1] > b3[2] and b3[2] < 1e-4
@@ -308,7 +308,7 @@ def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
     """Couette, Wendland C2 at h = 2.5 dx (the accurate preset's numerics), N_x = 12, 24, 48
     to t = 0.02 s (about 2 CPU s): second order; the estimated errors of the finest two
     levels within a factor 2 of the errors against Eq. (8), computed here from the profiles."""
-    from parsph.analytic import couette_velocity
+    from parsph.physics.analytic import couette_velocity
     from parsph.output import read_profile
     out = tmp_path / "cv"
     # the default dt scaling (dt ~ dx^2 from the coarsest level's limit): the first-order time error of

@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.particles import FLUID
-from parsph.solver import CHECKS, GuardError, Simulation
+from parsph.setup import config
+from parsph.sph.particles import FLUID
+from parsph.simulation.solver import CHECKS, GuardError, Simulation
 
 from conftest import PAPER_TOML
 
@@ -43,9 +43,9 @@ WORST = textwrap.dedent("""
     import sys
     import numpy as np
     from mpi4py import MPI
-    from parsph import config
-    from parsph.particles import FLUID
-    from parsph.solver import GuardError, Simulation
+    from parsph.setup import config
+    from parsph.sph.particles import FLUID
+    from parsph.simulation.solver import GuardError, Simulation
     comm = MPI.COMM_WORLD
     cfg = config.load(sys.argv[1], sys.argv[3:])
     sim = Simulation(cfg, comm)

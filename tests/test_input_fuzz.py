@@ -4,7 +4,7 @@
 
 Properties:
 
-* In process (``parsph.config``: what ``load`` / ``loads`` do after reading
+* In process (``parsph.setup.config``: what ``load`` / ``loads`` do after reading
   the file: ``build(raw, dumps(raw))``): whatever a run file holds (any TOML
   type in any key, missing and unknown keys and sections, NaN, +-inf, zero,
   negative, subnormal, huge and non-64-bit numbers, several bad keys at once,
@@ -15,7 +15,7 @@ Properties:
   exception (OverflowError, ZeroDivisionError, TypeError, ...) is a bug.
   A wrong type, a non-finite or out-of-range value, a missing required key
   or an unknown key must name exactly that key.
-* The memory check (``cli.fits_in_memory``) with a stubbed memory figure:
+* The memory check (``parsph.cli.run.fits_in_memory``) with a stubbed memory figure:
   random large Nx, Ly, Lz and h / dx in 2-D and 3-D on 1 to 4 nodes is
   refused (ConfigError on ``numerics.Nx`` with the particle count and the
   estimate in GB) exactly when the estimate exceeds 80% of the memory.
@@ -66,8 +66,8 @@ from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E
 sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
 import common as C  # noqa: E402
 
-from parsph import config  # noqa: E402
-from parsph.config import REQUIRED, SCHEMA, ConfigError  # noqa: E402
+from parsph.setup import config  # noqa: E402
+from parsph.setup.config import REQUIRED, SCHEMA, ConfigError  # noqa: E402
 
 BASE_TEXT = C.PAPER.read_text()
 BASE = tomllib.loads(BASE_TEXT)
@@ -752,7 +752,7 @@ def test_cli_property_two_ranks(case, data):
 # ---- the memory check, with a stubbed memory figure ------------------------------------------------
 
 class _StubComm:
-    """Enough of a communicator for cli.fits_in_memory: ``allgather`` reports the stubbed
+    """Enough of a communicator for run.fits_in_memory: ``allgather`` reports the stubbed
     memory of each of ``hosts`` nodes (several ranks of one node count once)."""
 
     def __init__(self, mem, hosts, ranks):
@@ -775,7 +775,7 @@ def test_memory_check_for_huge_particle_counts(data):
     (ConfigError on numerics.Nx with the estimate in GB) exactly when the particles need more
     than 80% of the nodes' memory, accepted otherwise."""
     import mpi4py
-    from parsph import cli
+    from parsph.cli import run
     raw = base()
     dim = data.draw(st.sampled_from([2, 3]))
     num = raw["numerics"]
@@ -801,7 +801,7 @@ def test_memory_check_for_huge_particle_counts(data):
         mp.setitem(sys.modules, "mpi4py.MPI", _StubMPI)
         mp.setattr(mpi4py, "MPI", _StubMPI, raising=False)
         try:
-            cli.fits_in_memory(comm, cfg)
+            run.fits_in_memory(comm, cfg)
         except ConfigError as e:
             COUNTS["memory check (stubbed memory), refused"] += 1
             assert need > 0.8 * mem * hosts, f"refused: {need:.3g} B of {mem * hosts:.3g} B: {e}"

@@ -54,7 +54,10 @@ import common as C  # noqa: E402
 
 launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
 
-LONG = (*C.SHORT, "output.t_end=0.5", "output.times=[0.5]", "output.progress_interval=0.05")
+# long enough that no run ends before the signal reaches its ranks (mpirun forwards it MPIRUN_GRACE later):
+# 500,000 steps, over a minute at 5,000 steps a second
+LONG_T_END = 5.0
+LONG = (*C.SHORT, f"output.t_end={LONG_T_END}", f"output.times=[{LONG_T_END}]", "output.progress_interval=0.05")
 RESUME_STEPS = 100  # a restart runs this many steps past the stop
 STOPPED = re.compile(r"^parsph: (SIG[A-Z]+|signal): stopped at step (\d+), t = (\S+) s; "
                      r"the last output is a restart point$")
@@ -117,7 +120,7 @@ def check_stopped(res, out, signame=None):
     assert snap["attrs"]["step"] == step, (snap["attrs"]["step"], step)
     assert snap["attrs"]["time"] == pytest.approx(step * C.DT, rel=1e-12)
     assert np.array_equal(snap["id"], np.arange(C.N_SHORT))
-    assert 0 < step < round(0.5 / C.DT), f"stopped at step {step}: the run was not stopped early"
+    assert 0 < step < round(LONG_T_END / C.DT), f"stopped at step {step}: the run was not stopped early"
     return step
 
 
@@ -310,7 +313,7 @@ def test_sigkill_mid_write_leaves_only_whole_outputs(tmp_path, restart_ranks):
 def test_stop_requested_on_one_rank_in_process(mpi_tmp_path):
     """A stop seen by the last rank only: every rank writes the final snapshot and raises Interrupted."""
     from parsph.output import Output, read_snapshot, read_state
-    from parsph.solver import Interrupted, Simulation
+    from parsph.simulation.solver import Interrupted, Simulation
     comm, cfg, (a, b) = C.comm_world_case(mpi_tmp_path, ("stopped", "uninterrupted"),
                                           "output.t_end=0.0003", "output.times=[0.0003]")
 

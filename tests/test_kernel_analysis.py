@@ -1,4 +1,4 @@
-"""Lattice sums of parsph.kernel_analysis against independent references.
+"""Lattice sums of parsph.physics.lattice_sums against independent references.
 
 * a brute-force pair sum in plain Python with the kernels typed here from their
   formulas (Eq. (4); Wendland C2 on support 2h), enumerating the sheared lattice
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from parsph.kernel_analysis import sheared_lattice_bias, sheared_lattice_sums, viscosity_bias
-from parsph.kernels import KERNEL_NAMES, lattice_sum, get_kernel
+from parsph.physics.lattice_sums import sheared_lattice_bias, sheared_lattice_sums, viscosity_bias
+from parsph.physics.kernels import KERNEL_NAMES, lattice_sum, get_kernel
 
 
 def cubic(q):

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from parsph import kernels
-from parsph.kernels import get_kernel
+from parsph.physics import kernels
+from parsph.physics.kernels import get_kernel
 
 H = 2.5e-4  # the paper's h [m]; a non-unit h exercises the h^-d scaling
 # the cubic spline of Eq. (4) has constants for 1-, 2- and 3-D; Wendland C2 is used in 2-D and 3-D only

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph.particles import FLUID
-from parsph.solver import Simulation
+from parsph.sph.particles import FLUID
+from parsph.simulation.solver import Simulation
 
 PAPER_TOML = Path(__file__).resolve().parent.parent / "run" / "couette_paper.toml"
 
@@ -139,7 +139,7 @@ def roundoff_bound_ax(cfg):
 
 @pytest.fixture(scope="module")
 def paper_t0():
-    from parsph import config
+    from parsph.setup import config
     cfg = config.load(str(PAPER_TOML))
     sim = Simulation(cfg, MPI.COMM_SELF)
     sim.compute_rates()

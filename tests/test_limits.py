@@ -1,4 +1,4 @@
-"""parsph.limits against independent references.
+"""parsph.physics.limits against independent references.
 
 - the sound speed of each pressure form: a finite difference of the effective pressure built from
   closures.modulus, and the ratio c_eff / c = sqrt(1 + G_a ln10 theta) of PHYSICS.md;
@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import closures, config, limits
-from parsph.solver import Simulation
+from parsph.physics import closures, limits
+from parsph.setup import config
+from parsph.simulation.solver import Simulation
 
 RHO_S, GA, GB = 2000.0, 8.76, -1.183
 N, L = 8, 0.01          # 8 x 8 periodic patch: wave vectors 2 pi n / (8 dx) hit the quarter zone's grid of 5

@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from parsph import config, output
+from parsph.setup import config
+from parsph import output
 
 pytestmark = pytest.mark.mpi
 

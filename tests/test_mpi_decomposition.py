@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph.decomposition import DecompositionError, SlabRing, fits, max_ranks, slab_bounds
-from parsph.neighbours import CELLS_PER_CUTOFF, Grid
+from parsph.parallel.slab_ring import DecompositionError, SlabRing, fits, max_ranks, slab_bounds
+from parsph.sph.neighbours import CELLS_PER_CUTOFF, Grid
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402

@@ -21,11 +21,11 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.particles import FLUID, MOVING_WALL, WALL
-from parsph.decomposition import DecompositionError, min_length
-from parsph.neighbours import CELLS_PER_CUTOFF
-from parsph.solver import Simulation
+from parsph.setup import config
+from parsph.sph.particles import FLUID, MOVING_WALL, WALL
+from parsph.parallel.slab_ring import DecompositionError, min_length
+from parsph.sph.neighbours import CELLS_PER_CUTOFF
+from parsph.simulation.solver import Simulation
 
 PAPER = Path(__file__).resolve().parents[1] / "run" / "couette_paper.toml"
 DX = 2.0e-4       # lattice spacing of the paper [m]
@@ -196,7 +196,7 @@ def test_bit_for_bit_midpoint_auto_dt_symmetric():
     assert cfg.dt_auto and cfg.integrator == "midpoint"
     v = compare_with_one_rank(cfg, comm)
     assert v["clock"], "step count, time or last dt differ from the 1-rank run"
-    assert v["steps"] >= 20  # dt about 1e-4 s (the midpoint scheme's linear limit, parsph.limits)
+    assert v["steps"] >= 20  # dt about 1e-4 s (the midpoint scheme's linear limit, parsph.physics.limits)
     assert v["gid"] and v["kind"] and v["n_par"] == v["n_one"]
     assert v["moved"] > 0.05
     for k in ("pos", "vel", "rho", "theta", "acc"):

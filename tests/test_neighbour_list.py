@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.particles import FLUID
-from parsph.solver import Simulation
+from parsph.setup import config
+from parsph.sph.particles import FLUID
+from parsph.simulation.solver import Simulation
 
 from conftest import ROOT
 

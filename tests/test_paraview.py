@@ -9,7 +9,7 @@ vx, vy (vz) and the 3-component velocity as the active vectors, the Glyph
 filter must accept velocity as its orientation and make arrows, and the error
 the script computes from ParaView's points at the last step must equal
 ``parsph check``'s and an independent recomputation from the HDF5 particles
-and Eq. (8) (numpy binning, parsph.analytic). The structure of the sidecar is
+and Eq. (8) (numpy binning, parsph.physics.analytic). The structure of the sidecar is
 tested without ParaView in test_xdmf.py.
 """
 import re
@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from parsph import output
-from parsph.analytic import couette_velocity
+from parsph.physics.analytic import couette_velocity
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402

@@ -215,7 +215,7 @@ FREE_CHANGES = {
 
 
 def test_every_physics_key_is_covered():
-    from parsph.config import SCHEMA
+    from parsph.setup.config import SCHEMA
     physics = {f"{s}.{k}" for s, keys in SCHEMA.items() if s not in ("output", "checks") for k in keys}
     # h_over_dx: the paper file gives h (both at once is an error); allow_unstable_dt changes no trajectory
     untested = physics - set(PHYSICS_CHANGES) - {"numerics.h_over_dx", "numerics.allow_unstable_dt"}
@@ -225,12 +225,13 @@ def test_every_physics_key_is_covered():
 @launches
 @pytest.mark.parametrize("key", sorted(PHYSICS_CHANGES))
 def test_restart_refuses_a_physics_change(runs, key):
-    """In process (cli.restart_state): UsageError naming the key, for every physics key."""
-    from parsph import cli, config
+    """In process (run.restart_state): UsageError naming the key, for every physics key."""
+    from parsph.cli import exits, run
+    from parsph.setup import config
     snap = runs("half", "paper", 1) / name(0)
     cfg = config.load(C.PAPER, [*FULL, f"{key}={PHYSICS_CHANGES[key]}"])
-    with pytest.raises(cli.UsageError) as e:
-        cli.restart_state(cfg, str(snap))
+    with pytest.raises(exits.UsageError) as e:
+        run.restart_state(cfg, str(snap))
     msg = str(e.value)
     assert "\n" not in msg
     assert msg.startswith(f"--restart: {key} = "), msg
@@ -239,10 +240,11 @@ def test_restart_refuses_a_physics_change(runs, key):
 @launches
 @pytest.mark.parametrize("key", sorted(FREE_CHANGES))
 def test_restart_accepts_output_and_checks_changes(runs, key):
-    from parsph import cli, config
+    from parsph.cli import run
+    from parsph.setup import config
     snap = runs("half", "paper", 1) / name(0)
     cfg = config.load(C.PAPER, [*FULL, f"{key}={FREE_CHANGES[key]}"])
-    state = cli.restart_state(cfg, str(snap))
+    state = run.restart_state(cfg, str(snap))
     assert int(state["attrs"]["step"]) == 200
 
 
@@ -308,7 +310,7 @@ def test_restart_in_process_on_comm_world(mpi_tmp_path):
     """Simulation + Output on COMM_WORLD: continuing from read_state (attributes and path; the
     ranks read their own particles) equals the uninterrupted run."""
     from parsph.output import Output, read_snapshot, read_state
-    from parsph.solver import Simulation
+    from parsph.simulation.solver import Simulation
     comm, cfg, (a, b) = C.comm_world_case(mpi_tmp_path, ("uninterrupted", "restarted"),
                                           "output.t_end=0.0006", "output.times=[0.0003, 0.0006]")
     sim = Simulation(cfg, comm)

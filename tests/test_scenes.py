@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.analytic import poiseuille_velocity, settling_equilibrium
-from parsph.particles import FLUID
-from parsph.solver import Simulation
+from parsph.setup import config
+from parsph.physics.analytic import poiseuille_velocity, settling_equilibrium
+from parsph.sph.particles import FLUID
+from parsph.simulation.solver import Simulation
 
 BASE = """
 [scene]

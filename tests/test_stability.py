@@ -7,7 +7,7 @@ criteria of scripts/stability_map.py, checked at every step: all values
 finite, no fluid particle beyond a wall plane, |theta - theta_0| / theta_0 <=
 THETA_FRAC, fluid kinetic energy <= 1/2 M V_w^2.
 
-The limit a run gets (parsph.limits: config.build's refusal, the first
+The limit a run gets (parsph.physics.limits: config.build's refusal, the first
 dt = "auto" and Simulation.stable_dt) is checked here against the continuum
 form of its binding term, computed in this file from G(theta): at dense
 packing the paper integrator's acoustic damping limit 2 nu / c_eff^2, with
@@ -26,11 +26,11 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.config import ConfigError
+from parsph.setup import config
+from parsph.setup.config import ConfigError
 from parsph.output import output_files, read_profile
-from parsph.particles import FLUID
-from parsph.solver import CHECKS, GuardError, Simulation
+from parsph.sph.particles import FLUID
+from parsph.simulation.solver import CHECKS, GuardError, Simulation
 
 from conftest import PAPER_TOML, paper_raw, run_cli
 
@@ -225,9 +225,9 @@ BLOWUP = ["material.theta0=0.7", f"numerics.dt={BLOWUP_DT!r}", "numerics.allow_u
 ALL_RANKS = textwrap.dedent("""
     import sys
     from mpi4py import MPI
-    from parsph import config
+    from parsph.setup import config
     from parsph.output import Output
-    from parsph.solver import GuardError, Simulation
+    from parsph.simulation.solver import GuardError, Simulation
     comm = MPI.COMM_WORLD
     cfg = config.load(sys.argv[1], sys.argv[3:])
     sim = Simulation(cfg, comm)

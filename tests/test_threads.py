@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config
-from parsph.solver import Simulation
+from parsph.setup import config
+from parsph.simulation.solver import Simulation
 
 from conftest import ROOT, run_cli
 

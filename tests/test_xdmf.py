@@ -19,8 +19,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph import config, output
-from parsph.analytic import couette_velocity
+from parsph.setup import config
+from parsph import output
+from parsph.physics.analytic import couette_velocity
 
 from xdmf_check import check_sidecar
 

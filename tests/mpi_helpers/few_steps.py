@@ -11,10 +11,10 @@ import math
 
 from mpi4py import MPI
 
-from parsph import config
-from parsph.decomposition import min_length
-from parsph.neighbours import CELLS_PER_CUTOFF
-from parsph.solver import Simulation
+from parsph.setup import config
+from parsph.parallel.slab_ring import min_length
+from parsph.sph.neighbours import CELLS_PER_CUTOFF
+from parsph.simulation.solver import Simulation
 
 PAPER = Path(__file__).resolve().parents[2] / "run" / "couette_paper.toml"
 

@@ -13,16 +13,16 @@ step) or, between two checks, the per-step collective flag raised by the next
 integration (non-finite positions) must then stop every rank with exit code 3
 and one message.
 
-The exit status is that of ``parsph.cli.main``.
+The exit status is that of ``parsph.cli.command.main``.
 """
 import sys
 
 import numpy as np
 from mpi4py import MPI
 
-import parsph.solver
+import parsph.simulation.solver
 from parsph import cli
-from parsph.particles import FLUID
+from parsph.sph.particles import FLUID
 
 
 def put_nan(sim, rank, step):
@@ -38,7 +38,7 @@ def main(argv):
     mode, rank, step = argv[0], int(argv[1]), int(argv[2])
     rest = argv[4:] if argv[3:4] == ["--"] else argv[3:]
     if MPI.COMM_WORLD.rank == rank:
-        original = parsph.solver.Simulation.advance
+        original = parsph.simulation.solver.Simulation.advance
 
         def advance(self, dt, stop_requested=None):
             if mode == "raise" and self.step == step:
@@ -48,7 +48,7 @@ def main(argv):
                 put_nan(self, rank, step)
             return stop
 
-        parsph.solver.Simulation.advance = advance
+        parsph.simulation.solver.Simulation.advance = advance
     return cli.main(["run", *rest])
 
 

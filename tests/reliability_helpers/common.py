@@ -47,7 +47,7 @@ def comm_world_case(tmp, names, *over):
     """COMM_WORLD, the paper case in a box short enough for tests (slabs >= 2h on any rank count)
     with run-file overrides ``over``, and empty directories ``tmp/<name>`` made by rank 0."""
     from mpi4py import MPI
-    from parsph import config
+    from parsph.setup import config
     comm = MPI.COMM_WORLD
     ly = max(10, 4 * comm.size) * 2e-4
     cfg = config.load(PAPER, [f"domain.Ly={ly!r}", *over])
@@ -63,7 +63,7 @@ _CACHE = None
 
 
 def cache_dir():
-    """The session's private numba cache, seeded with a copy of parsph/__pycache__'s entries.
+    """The session's private numba cache, seeded with a copy of the entries of parsph's __pycache__ folders.
 
     The copy only saves compilation time (numba checks every entry against the
     source and the machine); without it, or if numba's layout changes, the
@@ -76,11 +76,12 @@ def cache_dir():
         atexit.register(shutil.rmtree, _CACHE, True)
         try:
             from numba.core.caching import _CacheLocator
-            src = REPO / "parsph" / "__pycache__"
-            dst = Path(_CACHE) / _CacheLocator.get_suitable_cache_subpath(str(REPO / "parsph" / "solver.py"))
-            dst.mkdir(parents=True, exist_ok=True)
-            for f in src.glob("*.nb[ic]"):
-                shutil.copy2(f, dst / f.name)
+            for src in (REPO / "parsph").rglob("__pycache__"):
+                module = src.parent / "__init__.py"  # any source file of that folder names its cache subpath
+                dst = Path(_CACHE) / _CacheLocator.get_suitable_cache_subpath(str(module))
+                dst.mkdir(parents=True, exist_ok=True)
+                for f in src.glob("*.nb[ic]"):
+                    shutil.copy2(f, dst / f.name)
         except Exception:  # noqa: BLE001 - an optimisation only
             pass
     return _CACHE

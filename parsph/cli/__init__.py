@@ -1,0 +1,6 @@
+"""The ``parsph`` command: the parser (:mod:`.command`) and one module per command (:mod:`.run`,
+:mod:`.report`; converge's in :mod:`parsph.studies.converge`), the exit codes (:mod:`.exits`).
+
+The top layer: may import every other.
+"""
+from .command import main  # noqa: F401  (the console script parsph.cli:main)

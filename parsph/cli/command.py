@@ -1,0 +1,81 @@
+"""The ``parsph`` command: run, check, plot.
+
+    parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
+    parsph check OUTPUT [--tol 0.02]
+    parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
+    parsph plot OUTPUT [--png FILE]
+
+The commands live in :mod:`parsph.cli.run` (run) and
+:mod:`parsph.cli.report` (check, plot); ``converge`` in
+:mod:`parsph.studies.converge`; the exit codes in :mod:`parsph.cli.exits`.
+
+Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
+2 bad input (run file, options, output path); 3 a run-time check failed;
+130 / 143 stopped by SIGINT / SIGTERM after writing a restart point.
+"""
+import argparse
+import sys
+
+from .report import cmd_check, cmd_plot, print_table, profile_png, reference_lines  # noqa: F401
+from .run import (RESTART_FREE, fits_in_memory, restart_state, run_reporting,  # noqa: F401
+                          Signals, cmd_run)
+from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL, UsageError, agree  # noqa: F401
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="parsph", description=__doc__.split("\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a case (under mpirun for several ranks)")
+    r.add_argument("config", help="run file (TOML)")
+    r.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
+    r.add_argument("--out", help="output directory (default out/<run-file name>; with --restart, the restart's)")
+    r.add_argument("--force", action="store_true", help="overwrite existing output files")
+    r.add_argument("--restart", metavar="OUTPUT",
+                   help="continue from the last snapshot of OUTPUT (a directory or one output file)")
+    r.add_argument("--quiet", action="store_true", help="no progress lines")
+    r.add_argument("--threads", type=int, default=1, metavar="N",
+                   help="threads per rank in the particle loops (default 1: one rank per core; "
+                        "ranks x threads should not exceed the cores)")
+    c = sub.add_parser("check", help="print the error table of a run; exit 1 above --tol")
+    c.add_argument("output", help="output directory or file")
+    c.add_argument("--tol", type=float, default=0.02, help="largest max error / V_w accepted (default 0.02)")
+    cv = sub.add_parser("converge", help="run at several resolutions; estimated error and cost of each "
+                                         "(under mpirun for several ranks)")
+    cv.add_argument("config", help="run file (TOML): the coarsest level")
+    cv.add_argument("--levels", type=int, default=3, help="resolutions N_x, R N_x, R^2 N_x, ... (default 3)")
+    cv.add_argument("--ratio", type=int, default=2, help="refinement ratio R (default 2)")
+    cv.add_argument("--target", type=float, metavar="ERR",
+                    help="predict the cheapest N_x (and --family) with max error <= ERR at every output time")
+    cv.add_argument("--out", help="directory of the levels and of converge.json / converge.png "
+                                  "(default out/<run-file name>_converge)")
+    cv.add_argument("--family", action="append", metavar="NAME",
+                    help="numerics to study: given (the run file's; default), fast, accurate, paper "
+                         "(the presets'); repeat to compare")
+    cv.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
+    cv.add_argument("--force", action="store_true", help="overwrite a level's outputs that cannot be reused")
+    cv.add_argument("--threads", type=int, default=1, metavar="N", help="threads per rank (as for run)")
+    cv.add_argument("--dt-scaling", choices=("limit", "dx2"), default="dx2",
+                    help="dx2 (default): dt ~ dx^2 from the coarsest level's limit, so the time error falls as "
+                         "dx^2 at every level; limit: each level at its own stability limit (cheaper; mixed orders)")
+    pl = sub.add_parser("plot", help="PNG of the simulated profiles over the reference")
+    pl.add_argument("output", help="output directory or file")
+    pl.add_argument("--png", help="PNG path (default next to the outputs)")
+    return p
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            return cmd_run(args)
+        if args.command == "converge":
+            from parsph.studies.converge import cmd_converge
+            return cmd_converge(args)
+        return {"check": cmd_check, "plot": cmd_plot}[args.command](args)
+    except UsageError as e:
+        print(f"parsph: error: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,113 @@
+"""``parsph check`` and ``parsph plot``: the error table of a run's outputs, and its profiles over the reference
+(serial: no MPI needed)."""
+import os
+import re
+import sys
+
+from .exits import EXIT_ERROR, UsageError
+
+
+def _current_scales(p):
+    """Per output time, what is left of a decaying flow (the scene's current_scale), else None."""
+    from parsph.setup.config import ConfigError, loads
+    from parsph.setup.scenes import error_scale
+    try:
+        cfg = loads(p["attrs"]["run_file"])
+    except (ConfigError, KeyError):
+        return None
+    if cfg.scene.current_scale is None:
+        return None
+    return [error_scale(cfg, float(t)) for t in p["time"]]
+
+
+def print_table(path, tol=None):
+    """Print the error table of a run's outputs; return the worst max error.
+
+    For a decaying flow the errors are relative to what is left of it at each time."""
+    from parsph.output import read_profile
+    from parsph.sph.profiles import errors
+    p = read_profile(path)
+    key = p["attrs"].get("error_field", "vy")
+    field = {"vy": "v_y", "theta": "theta"}.get(key, "v_y")
+    scale = p["attrs"].get("error_scale", p["attrs"].get("V_w", 1.0))
+    now = _current_scales(p)
+    if now is None:
+        print(f"errors of {field} against the reference, relative to {scale:.4g}")
+        print(f"{'t [s]':>10} {'max error':>12} {'rms error':>12}")
+        rows = [(t, emax, erms, "") for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"])]
+    else:
+        print(f"errors of {field} against the reference, relative to the amplitude left at each time "
+              f"(initially {scale:.4g})")
+        print(f"{'t [s]':>10} {'amplitude':>12} {'max error':>12} {'rms error':>12} {'max / initial':>13}")
+        rows = [(t, *errors(f, fe, s), f" {s:>12.4g}", f" {emax:>13.3e}") for t, f, fe, s, emax
+                in zip(p["time"], p[key], p[key + "_exact"], now, p["err_max"])]
+    worst = 0.0
+    for t, emax, erms, amp, *initial in rows:
+        flag = "" if tol is None or emax <= tol else "  > tol"
+        print(f"{t:>10.4g}{amp} {emax:>12.3e} {erms:>12.3e}{''.join(initial)}{flag}")
+        worst = max(worst, emax) if emax == emax else float("nan")
+    return worst
+
+
+def _read(path, fn):
+    try:
+        return fn(path)
+    except (FileNotFoundError, ValueError, OSError) as e:
+        raise UsageError(f"cannot read output {path}: {e}") from None
+
+
+def cmd_check(args):
+    worst = _read(args.output, lambda p: print_table(p, args.tol))
+    if not worst <= args.tol:
+        print(f"parsph check: max error {worst:.3e} above tolerance {args.tol:g}", file=sys.stderr)
+        return EXIT_ERROR
+    print(f"parsph check: all errors within {args.tol:g}")
+    return 0
+
+
+def reference_lines(p, points=401):
+    """The scene's reference at each output time on a fine grid over [0, L] (None where it has none),
+    so that the plotted lines reach the plates; p is read_profile's dict."""
+    import numpy as np
+    from parsph.setup.config import loads
+    cfg = loads(p["attrs"]["run_file"])
+    field = p["attrs"].get("error_field", "vy")
+    x = np.linspace(0.0, p["attrs"]["L"], points)
+    lines = [cfg.scene.reference(cfg, x, t)[field]
+             if cfg.scene.reference is not None and np.all(np.isfinite(ref)) else None
+             for t, ref in zip(p["time"], p[field + "_exact"])]
+    return x, lines
+
+
+def profile_png(first):
+    """DIR/<stem>_profile.png for the output file DIR/<stem>_NNNN.h5 (an index of four digits or more)."""
+    stem = re.sub(r"_\d{4,}\.h5$", "", os.path.basename(first))
+    return os.path.join(os.path.dirname(first), stem + "_profile.png")
+
+
+def cmd_plot(args):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from parsph.output import output_files, read_profile
+    p = _read(args.output, read_profile)
+    first = output_files(args.output)[0]
+    png = args.png or profile_png(first)
+    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
+    L = p["attrs"]["L"]
+    field = p["attrs"].get("error_field", "vy")
+    x_fine, lines = reference_lines(p)
+    for c, t, sim, line in zip(colors, p["time"], p[field], lines):
+        if line is not None:
+            ax.plot(x_fine / L, line, "-", color=c, lw=1.2)
+        ax.plot(p["x"] / L, sim, "o", color=c, ms=3, label=f"t = {t:g} s")
+    ax.set_xlabel("x / L")
+    ax.set_ylabel({"vy": "v_y [m/s]", "theta": "theta"}[field])
+    ax.set_title("SPH (points) against the reference (lines)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+    print(f"wrote {png}")
+    return 0

@@ -1,0 +1,67 @@
+"""The halo's message rows: numba loops that pack the owned particles' rows into the send buffers and
+unpack the received rows as ghosts, then refresh the periodic images from their originals.
+
+A forward row is (position, velocity, displacement); a scalar row one
+number (rho). Used by :class:`parsph.parallel.slab_ring.SlabRing` between rebuilds.
+"""
+from numba import njit
+
+
+@njit(cache=True)
+def pack_forward(pos, vel, disp, up, out_up, down, out_down):
+    """Rows (pos, vel, disp) of the owned particles ``up`` and ``down`` into the two send buffers."""
+    d = pos.shape[1]
+    for idx, out in ((up, out_up), (down, out_down)):
+        for r in range(idx.shape[0]):
+            i = idx[r]
+            for c in range(d):
+                out[r, c] = pos[i, c]
+                out[r, d + c] = vel[i, c]
+                out[r, 2 * d + c] = disp[i, c]
+
+
+@njit(cache=True)
+def unpack_forward(below, above, start, shift_below, shift_above, pos, vel, disp,
+                    img_src, img_axis, img_shift, img_start):
+    """Ghost rows from below then above into place ``start``; y shifted; then the periodic images."""
+    d = pos.shape[1]
+    i = start
+    for rows, shift in ((below, shift_below), (above, shift_above)):
+        for r in range(rows.shape[0]):
+            for c in range(d):
+                pos[i, c] = rows[r, c]
+                vel[i, c] = rows[r, d + c]
+                disp[i, c] = rows[r, 2 * d + c]
+            pos[i, 1] += shift
+            i += 1
+    for q in range(img_src.shape[0]):
+        s = img_src[q]
+        j = img_start + q
+        for c in range(d):
+            pos[j, c] = pos[s, c]
+            vel[j, c] = vel[s, c]
+            disp[j, c] = disp[s, c]
+        pos[j, img_axis[q]] += img_shift[q]
+
+
+@njit(cache=True)
+def pack_scalar(arr, up, out_up, down, out_down):
+    """The scalar ``arr`` of the owned particles ``up`` and ``down`` into the two send buffers."""
+    for r in range(up.shape[0]):
+        out_up[r] = arr[up[r]]
+    for r in range(down.shape[0]):
+        out_down[r] = arr[down[r]]
+
+
+@njit(cache=True)
+def unpack_scalar(below, above, start, arr, img_src, img_start):
+    """Ghost values from below then above into place ``start``; then the periodic images."""
+    i = start
+    for r in range(below.shape[0]):
+        arr[i] = below[r]
+        i += 1
+    for r in range(above.shape[0]):
+        arr[i] = above[r]
+        i += 1
+    for q in range(img_src.shape[0]):
+        arr[img_start + q] = arr[img_src[q]]

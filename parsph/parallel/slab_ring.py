@@ -1,0 +1,314 @@
+"""Slabs along the periodic y direction: migration, ghosts and periodic images, over MPI.
+
+Rank r owns y in [bounds[r], bounds[r+1]) with equal widths at each rebuild
+of the neighbour list; every slab spans the whole channel in x. The ring is
+periodic: rank P-1's upper neighbour is rank 0, and copies that cross y = Ly
+are shifted by -Ly (going up) or +Ly (going down) on arrival. With one rank
+the rank is its own neighbour and the same code runs.
+
+At a rebuild (:meth:`SlabRing.rebuild`): positions are wrapped into the box,
+particles migrate to the rank that owns their y (several slabs away if they
+must), and each rank receives as ghosts the whole rows of cells of the
+neighbour list's grid that it needs (the rows within M cells of its own:
+every block of the validity test centred on its rows is then complete, and
+every particle within r_c of it is there). Periodic images of the directions
+a rank holds whole (x without walls, z in 3-D) are appended as copies.
+Between rebuilds particles stay where they are, even outside their slab:
+:meth:`SlabRing.forward` refreshes the same ghosts' positions, velocities
+and displacements, and :meth:`SlabRing.refresh` one scalar (rho), each in
+one round of messages of sizes known in advance.
+
+Messages are float64 rows sent with mpi4py's buffer methods (no pickling),
+packed and unpacked by the loops of :mod:`parsph.parallel.halo_rows`; the slab
+arithmetic (edges, rows, whether a rank count fits) is :mod:`parsph.parallel.slabs`.
+This module knows nothing of the equations, only of particle arrays and the
+cell grid.
+"""
+import numpy as np
+from mpi4py import MPI
+
+from .halo_rows import pack_forward, pack_scalar, unpack_forward, unpack_scalar
+from parsph.sph.neighbours import CellBox
+from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
+
+TAG_UP, TAG_DOWN, TAG_MOVE_UP, TAG_MOVE_DOWN = 11, 12, 13, 14
+
+
+class SlabRing:
+    """The slab of this rank, its two neighbours, its ghosts and images, and the exchange buffers."""
+
+    def __init__(self, comm, Ly, grid):
+        self.comm = comm
+        self.rank, self.size = comm.rank, comm.size
+        self.Ly = Ly
+        self.grid = grid
+        P = self.size
+        ay = grid.axes[1]
+        self.side, self.ny, self.m = ay.side, ay.n, grid.m
+        if not fits(Ly, P, self.side, self.ny, self.m):
+            most = max_ranks(Ly, grid.cutoff, self.m)
+            raise DecompositionError(
+                f"{P} slabs of Ly = {Ly:g} m are {Ly / P:g} m wide, too thin for their ghost rows "
+                f"(about {(self.m + 1) * self.side:.3g} m: the neighbour-list cutoff 2h + skin = {grid.cutoff:.3g} m "
+                f"and half of it again): use at most {most} ranks or Ly >= {min_length(P, grid.cutoff, self.m):g} m")
+        self.bounds = slab_bounds(Ly, P)
+        self.lo, self.hi = self.bounds[self.rank], self.bounds[self.rank + 1]
+        self.left = (self.rank - 1) % P
+        self.right = (self.rank + 1) % P
+        first, last = cell_rows(self.bounds, self.side, self.ny)
+        self.first_row, self.last_row = int(first[self.rank]), int(last[self.rank])
+        self._rows_of = (first, last)
+        # ghosts: counts from below and above, the owned places sent down and up, y shifts on arrival
+        self.n_below = self.n_above = 0
+        self.send_down = np.zeros(0, np.int64)
+        self.send_up = np.zeros(0, np.int64)
+        self.shift_below = -Ly if self.rank == 0 else 0.0   # rows from the left neighbour
+        self.shift_above = Ly if self.rank == P - 1 else 0.0
+        self.img_src = np.zeros(0, np.int64)
+        self.img_axis = np.zeros(0, np.int64)
+        self.img_shift = np.zeros(0)
+        self.n_images = 0
+        self._bufs = {}
+        self._status = MPI.Status()
+        self._flag = np.zeros(1, np.int64)
+        self._flag_all = np.zeros(1, np.int64)
+
+    # -- buffers --------------------------------------------------------------------
+    def _buf(self, key, rows, width):
+        """A preallocated float64 buffer of at least (rows, width), grown only when too small."""
+        buf = self._bufs.get(key)
+        if buf is None or buf.shape[0] < rows or buf.shape[1] != width:
+            old = 0 if buf is None else buf.shape[0]
+            buf = np.zeros((max(rows, 64, int(1.5 * old) if rows > old else old), width))
+            self._bufs[key] = buf
+        return buf
+
+    def _send_receive(self, up, down, tags):
+        """Send rows ``up`` to the right neighbour and ``down`` to the left; receive rows of unknown number.
+
+        The counts travel as message sizes (MPI_Probe, then a receive of that
+        size). Returns (rows from the left, rows from the right).
+        """
+        c = self.comm
+        width = up.shape[1]
+        tag_up, tag_down = tags
+        sends = [c.Isend([up, MPI.DOUBLE], dest=self.right, tag=tag_up),
+                 c.Isend([down, MPI.DOUBLE], dest=self.left, tag=tag_down)]
+        got = []
+        for source, tag in ((self.left, tag_up), (self.right, tag_down)):
+            c.Probe(source=source, tag=tag, status=self._status)
+            rows = self._status.Get_count(MPI.DOUBLE) // max(width, 1)
+            buf = self._buf(("probe", tag), rows, width)[:rows]
+            c.Recv([buf, MPI.DOUBLE], source=source, tag=tag)
+            got.append(buf.copy())
+        MPI.Request.Waitall(sends)
+        return got[0], got[1]
+
+    def _exchange(self, key, n_up, n_down, width, up_rows=None):
+        """Known sizes: send the first n_up/n_down rows of the send buffers, receive n_below/n_above rows."""
+        c = self.comm
+        below = self._buf(("recv below", key), self.n_below, width)[:self.n_below]
+        above = self._buf(("recv above", key), self.n_above, width)[:self.n_above]
+        reqs = [c.Irecv([below, MPI.DOUBLE], source=self.left, tag=TAG_UP),
+                c.Irecv([above, MPI.DOUBLE], source=self.right, tag=TAG_DOWN),
+                c.Isend([self._buf(("send up", key), n_up, width)[:n_up], MPI.DOUBLE], dest=self.right, tag=TAG_UP),
+                c.Isend([self._buf(("send down", key), n_down, width)[:n_down], MPI.DOUBLE], dest=self.left,
+                        tag=TAG_DOWN)]
+        MPI.Request.Waitall(reqs)
+        return below, above
+
+    # -- every step -------------------------------------------------------------------
+    def forward(self, ps):
+        """Positions, velocities and displacements of the ghosts (one round) and of the images."""
+        d = ps.dim
+        width = 3 * d
+        nu, nd = len(self.send_up), len(self.send_down)
+        pack_forward(ps.pos, ps.vel, ps.disp, self.send_up, self._buf(("send up", "fwd"), nu, width),
+                      self.send_down, self._buf(("send down", "fwd"), nd, width))
+        below, above = self._exchange("fwd", nu, nd, width)
+        unpack_forward(below, above, ps.n_own, self.shift_below, self.shift_above, ps.pos, ps.vel, ps.disp,
+                        self.img_src, self.img_axis, self.img_shift, ps.n_own + self.n_below + self.n_above)
+
+    def refresh(self, ps, arr):
+        """One scalar per particle (``arr``, e.g. ps.rho) of the ghosts and images from their originals."""
+        nu, nd = len(self.send_up), len(self.send_down)
+        pack_scalar(arr, self.send_up, self._buf(("send up", "scalar"), nu, 1)[:, 0],
+                     self.send_down, self._buf(("send down", "scalar"), nd, 1)[:, 0])
+        below, above = self._exchange("scalar", nu, nd, 1)
+        unpack_scalar(below[:, 0], above[:, 0], ps.n_own, arr, self.img_src,
+                       ps.n_own + self.n_below + self.n_above)
+
+    # -- at a rebuild -------------------------------------------------------------------
+    def owner(self, y):
+        """The rank owning each y in [0, Ly)."""
+        return np.clip(np.searchsorted(self.bounds, y, side="right") - 1, 0, self.size - 1)
+
+    def wrap(self, ps, position_fields):
+        """Wrap the owned positions into the box along its periodic directions (the same shift for every
+        field in ``position_fields``, e.g. the midpoint integrator's saved positions)."""
+        n = ps.n_own
+        for axis in range(ps.dim):
+            a = self.grid.axes[axis]
+            if not a.periodic:
+                continue
+            x = ps.pos[:n, axis]
+            shift = np.floor(x / a.period) * a.period
+            if not np.any(shift):
+                continue
+            for name in position_fields:
+                getattr(ps, name)[:n, axis] -= shift
+            # rounding can leave x == period after the shift
+            over = ps.pos[:n, axis] >= a.period
+            for name in position_fields:
+                getattr(ps, name)[:n, axis][over] -= a.period
+
+    def migrate(self, ps, key="pos"):
+        """Hand every owned particle whose y (of field ``key``) is outside the slab to its owner, through
+        the ring, as often as needed.
+
+        Each round moves the strays one slab toward their owner (the shorter
+        way round); rounds go on until no rank has any (one all-reduce each).
+        """
+        P = self.size
+        if P == 1:
+            return
+        while True:
+            n = ps.n_own
+            owner = self.owner(getattr(ps, key)[:n, 1])
+            away = owner != self.rank
+            self._flag[0] = int(away.any())
+            self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
+            if not self._flag_all[0]:
+                return
+            ahead = (owner - self.rank) % P
+            up = away & (ahead <= P // 2)
+            down = away & ~up
+            from_left, from_right = self._send_receive(ps.rows(np.flatnonzero(up)), ps.rows(np.flatnonzero(down)),
+                                                       (TAG_MOVE_UP, TAG_MOVE_DOWN))
+            ps.remove_owned(away)
+            n0 = ps.n_own
+            k = len(from_left) + len(from_right)
+            ps.ensure(n0 + k, keep=n0)
+            ps.put_rows(from_left, n0)
+            ps.put_rows(from_right, n0 + len(from_left))
+            ps.n_own = ps.n = n0 + k
+
+    def exchange_ghosts(self, ps, coords, ghost_fields):
+        """Receive as ghosts the neighbours' particles in the cell rows this slab needs; returns the coords array.
+
+        ``coords`` (int64, (capacity, 3)): integer cell coordinates of the owned
+        particles; the ghosts' are appended (their row shifted by -+ny across
+        y = Ly). ``ghost_fields`` are the particle fields a ghost carries.
+        """
+        P, r, m, ny = self.size, self.rank, self.m, self.ny
+        first, last = self._rows_of
+        n = ps.n_own
+        cy = coords[:n, 1]
+        # rows as the receiver numbers them: +ny for rank 0 sending down across y = 0, -ny for P-1 up
+        down_rows = cy + (ny if r == 0 else 0)
+        up_rows = cy - (ny if r == P - 1 else 0)
+        self.send_down = np.flatnonzero(down_rows <= last[self.left] + m).astype(np.int64)
+        self.send_up = np.flatnonzero(up_rows >= first[self.right] - m).astype(np.int64)
+
+        def rows(idx):
+            cols = [getattr(ps, f)[idx].reshape(len(idx), int(np.prod(getattr(ps, f).shape[1:], dtype=np.int64)))
+                    .astype(float) for f in ghost_fields]
+            return np.concatenate(cols + [coords[idx].astype(float)], axis=1)
+
+        below, above = self._send_receive(rows(self.send_up), rows(self.send_down), (TAG_UP, TAG_DOWN))
+        self.n_below, self.n_above = len(below), len(above)
+        k = self.n_below + self.n_above
+        ps.n = n
+        ps.ensure(n + k, keep=n)
+        if len(coords) < ps.capacity:
+            coords = np.concatenate([coords, np.zeros((ps.capacity - len(coords), 3), np.int64)])
+        allrows = np.concatenate([below, above])
+        c = 0
+        for f in ghost_fields:
+            arr = getattr(ps, f)
+            w = int(np.prod(arr.shape[1:], dtype=np.int64))
+            arr[n:n + k] = allrows[:, c:c + w].reshape((k,) + arr.shape[1:]).astype(arr.dtype)
+            c += w
+        coords[n:n + k] = allrows[:, c:c + 3].astype(np.int64)
+        for f in ("pos", "ref"):
+            if f in ghost_fields:
+                getattr(ps, f)[n:n + self.n_below, 1] += self.shift_below
+                getattr(ps, f)[n + self.n_below:n + k, 1] += self.shift_above
+        if r == 0:
+            coords[n:n + self.n_below, 1] -= ny
+        if r == P - 1:
+            coords[n + self.n_below:n + k, 1] += ny
+        ps.n = n + k
+        return coords
+
+    def add_images(self, ps, coords, image_fields):
+        """Periodic copies along x (without walls) and z (3-D) of the M rows of cells at each end.
+
+        Copies of the rows 0..M-1 go to n..n+M-1 (shift +period), of the rows
+        n-M..n-1 to -M..-1; directions in turn, so corners are copied too.
+        Records the sources for :meth:`forward` and :meth:`refresh`.
+        """
+        src_all, axis_all, shift_all = [], [], []
+        start = ps.n
+        for axis in (0, 2):
+            a = self.grid.axes[axis]
+            if axis >= ps.dim or not a.periodic:
+                continue
+            n = ps.n
+            c = coords[:n, axis]
+            lo = np.flatnonzero(c < self.m)
+            hi = np.flatnonzero(c >= a.n - self.m)
+            src = np.concatenate([lo, hi])
+            shift = np.concatenate([np.full(len(lo), a.period), np.full(len(hi), -a.period)])
+            k = len(src)
+            ps.ensure(n + k, keep=n)
+            if len(coords) < ps.capacity:
+                coords = np.concatenate([coords, np.zeros((ps.capacity - len(coords), 3), np.int64)])
+            for f in image_fields:
+                arr = getattr(ps, f)
+                arr[n:n + k] = arr[src]
+            for f in ("pos", "ref"):
+                if f in image_fields:
+                    getattr(ps, f)[n:n + k, axis] += shift
+            coords[n:n + k] = coords[src]
+            coords[n:n + len(lo), axis] += a.n
+            coords[n + len(lo):n + k, axis] -= a.n
+            ps.n = n + k
+            src_all.append(src)
+            axis_all.append(np.full(k, axis, np.int64))
+            shift_all.append(shift)
+        if src_all:
+            self.img_src = np.concatenate(src_all).astype(np.int64)
+            self.img_axis = np.concatenate(axis_all)
+            self.img_shift = np.concatenate(shift_all)
+        self.n_images = ps.n - start
+        return coords
+
+    def local_box(self, ps_dim):
+        """This rank's local cell box (a :class:`parsph.sph.neighbours.CellBox`) in global integer cell coordinates.
+
+        Rows: this slab's own rows and M more on each side; x and z: the whole
+        grid, plus M image rows at each periodic end. Block centres: the slab's
+        own rows, every x and z cell.
+        """
+        m = self.m
+        lo, size, c_lo, c_hi = [], [], [], []
+        for axis in range(3):
+            a = self.grid.axes[axis]
+            if axis == 1:
+                lo.append(self.first_row - m)
+                size.append(self.last_row - self.first_row + 1 + 2 * m)
+                c_lo.append(m)
+                c_hi.append(m + self.last_row - self.first_row)
+            elif a.periodic and axis < ps_dim:
+                lo.append(-m)
+                size.append(a.n + 2 * m)
+                c_lo.append(m)
+                c_hi.append(m + a.n - 1)
+            else:
+                lo.append(0)
+                size.append(a.n)
+                c_lo.append(0)
+                c_hi.append(a.n - 1)
+        as_int = lambda v: np.array(v, np.int64)  # noqa: E731
+        return CellBox(as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi))

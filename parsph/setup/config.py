@@ -1,0 +1,250 @@
+"""A run: the validated run file and every quantity derived from it, computed once (:class:`RunConfig`).
+
+A run file has the sections of :data:`parsph.setup.schema.SCHEMA`; ``parsph run
+--set section.key=value`` overrides any key (:mod:`parsph.setup.runfile`). Every
+problem raises :class:`ConfigError` naming the key. The full key list with
+units is in docs/running.md ("Run-file keys"). :func:`build` derives the
+lattice, checks the kernel's support against it, and chooses the time step
+against the run's stability limits (:mod:`parsph.physics.limits`).
+"""
+from dataclasses import dataclass, field, replace
+import math
+import tomllib
+
+from parsph.physics.kernels import get_kernel
+from parsph.physics import limits as stability
+from .runfile import apply_overrides, dumps, parse_value  # noqa: F401  (the run-file API lives here too)
+from .scenes import get_scene
+from .schema import REQUIRED, SCHEMA, ConfigError, Key, _finite, validate  # noqa: F401
+
+MAX_NEIGHBOURS = 5000  # lattice neighbours within the support: memory and time per particle grow with it
+
+
+def bytes_per_particle(cfg):
+    """An upper bound of the resident memory per particle [bytes], to refuse runs that cannot fit.
+
+    Fields (about 300 + 100 dim bytes) plus the neighbour list, 12 bytes per
+    entry for the neighbours within 2h (the disc or ball's lattice points,
+    +25% for a compressed lattice) and a margin of 4, with 30% spare capacity.
+    Measured (docs/performance.md): 550 B in 2-D, 1.7 KB in 3-D at
+    h = 1.25 dx; this gives 950 B and 1.9 KB.
+    """
+    reach = 2.0 * cfg.h
+    cells = [reach / s for s in cfg.spacing]
+    ball = math.pi * cells[0] * cells[1] if cfg.dim == 2 else 4.0 / 3.0 * math.pi * math.prod(cells)
+    return 300 + 100 * cfg.dim + 1.3 * 12 * (1.25 * ball + 4)
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """A validated run with every derived quantity (SI units)."""
+    values: dict
+    text: str  # the run file as given, overrides applied (TOML)
+    dim: int
+    L: float
+    Ly: float
+    Lz: float
+    Nx: int
+    Ny: int
+    Nz: int
+    dx: float
+    dy: float
+    dz: float
+    h: float
+    layers: int
+    mass: float
+    rho_s: float
+    theta0: float
+    k: float
+    G_a: float
+    G_b: float
+    V_w: float
+    beta_max: float
+    kernel: str
+    dt: float
+    dt_auto: bool
+    t_end: float
+    nsteps: int
+    output_times: tuple
+    integrator: str
+    g: tuple
+    scene: object = None
+    pressure: bool = True
+    viscosity: bool = True
+    limits: dict = field(default_factory=dict)
+
+    @property
+    def nu(self):
+        """Kinematic viscosity k theta0 / rho_s (Eq. (5) in a uniform state)."""
+        return self.k * self.theta0 / self.rho_s
+
+    @property
+    def n_particles(self):
+        """Fluid and wall particles of the lattice."""
+        return (self.Nx + (2 * self.layers if self.scene.walls else 0)) * self.Ny * self.Nz
+
+    @property
+    def spacing(self):
+        """Lattice step per dimension [m]."""
+        return (self.dx, self.dy, self.dz)[:self.dim]
+
+    @property
+    def velocity_scale(self):
+        """The scene's velocity scale [m/s]: errors are normalised by it."""
+        return self.scene.velocity_scale(self)
+
+    @property
+    def reynolds(self):
+        return self.velocity_scale * self.L / self.nu if self.nu > 0 else math.inf
+
+    def get(self, dotted):
+        section, key = dotted.split(".")
+        return self.values[section][key]
+
+
+def _lattice(v):
+    """dim, L, Ly, Lz, Nx, Ny, Nz, dx, dy, dz, h and the key that gave h, of the validated values ``v``."""
+    dom, num = v["domain"], v["numerics"]
+    dim = v["scene"]["dim"]
+    L = dom["L"]
+    Ly = dom["Ly"] if dom["Ly"] is not None else L
+    Nx = num["Nx"]
+    dx = _finite("domain.L", L / Nx, "dx = L / Nx")
+    if (num["h"] is None) == (num["h_over_dx"] is None):
+        raise ConfigError("numerics.h", "give exactly one of numerics.h and numerics.h_over_dx")
+    h = num["h"] if num["h"] is not None else num["h_over_dx"] * dx
+    hkey = "numerics.h" if num["h"] is not None else "numerics.h_over_dx"
+    if not (math.isfinite(h) and 0 < h / dx <= 1e6):
+        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is out of range")
+    for key, length in (("domain.Ly", Ly), ("domain.Lz", dom["Lz"] or Ly)):
+        if not length / dx <= 2 ** 40:
+            raise ConfigError(key, f"{length:g} m holds more than 2^40 particle rows of dx = {dx:g} m")
+    Ny = max(1, round(Ly / dx))
+    dy = Ly / Ny
+    Lz = (dom["Lz"] if dom["Lz"] is not None else Ly) if dim == 3 else dx
+    Nz = max(1, round(Lz / dx)) if dim == 3 else 1
+    dz = Lz / Nz
+    return dict(dim=dim, L=L, Ly=Ly, Lz=Lz, Nx=Nx, Ny=Ny, Nz=Nz, dx=dx, dy=dy, dz=dz, h=h), hkey
+
+
+def _wall_layers(v, lat, hkey, scene, kern):
+    """The wall layers, after checking that the kernel's support fits the lattice and the box."""
+    num, walls = v["numerics"], v["walls"]
+    dim, L, Ly, Lz, dx, h = lat["dim"], lat["L"], lat["Ly"], lat["Lz"], lat["dx"], lat["h"]
+    support = kern.support * h
+    if support <= dx * (1 + 1e-9):
+        raise ConfigError(hkey, f"h / dx = {h / dx:.3g} is too small: the kernel support {kern.support:g}h = "
+                          f"{support:.3g} m does not reach the next particle (dx = {dx:g} m), so no particle "
+                          f"has a neighbour; need h / dx > {1 / kern.support:g} (the usual: 1.2 to 2)")
+    lengths = [L, Ly] + ([Lz] if dim == 3 else [])
+    if support > max(lengths):
+        # wider than the channel and than the box: h is the cause, not one length
+        raise ConfigError(hkey, f"h = {h:g} m (h / dx = {h / dx:.3g}) is too large: the kernel support "
+                          f"2h = {support:g} m is wider than the channel (L = {L:g} m) and the box "
+                          f"(L_y = {Ly:g} m{f', L_z = {Lz:g} m' if dim == 3 else ''})")
+    ball = math.pi * (support / dx) ** 2 if dim == 2 else 4.0 / 3.0 * math.pi * (support / dx) ** 3
+    if ball > MAX_NEIGHBOURS:  # with h given, N_x made dx too small for it; else h_over_dx is too large
+        raise ConfigError("numerics.Nx" if num["h"] is not None else hkey, f"h / dx = {h / dx:.3g} is too large: the kernel support {kern.support:g}h holds "
+                          f"about {ball:.3g} lattice neighbours per particle, more than {MAX_NEIGHBOURS} "
+                          f"(the usual h / dx: 1.2 to 2.5, some 20 to 80 neighbours)")
+    need_layers = math.ceil(support / dx - 1e-9)
+    layers = walls["layers"] or need_layers
+    if scene.walls and layers * dx < support * (1 - 1e-9):
+        raise ConfigError("walls.layers", f"{layers} layers of dx = {dx:g} m do not cover the kernel "
+                          f"support {support:g} m; need at least {need_layers}")
+    if Ly < support:
+        raise ConfigError("domain.Ly", f"{Ly:g} m is shorter than the kernel support 2h = {support:g} m")
+    if dim == 3 and Lz < support:
+        raise ConfigError("domain.Lz", f"{Lz:g} m is shorter than the kernel support 2h = {support:g} m")
+    if not scene.walls and L < support:
+        raise ConfigError("domain.L", f"{L:g} m is shorter than the kernel support 2h = {support:g} m")
+    return layers if scene.walls else 0
+
+
+def _body_force(v, dim, scene):
+    g = v["body_force"]["g"]
+    if g is None:
+        g = (0.0,) * dim
+    if len(g) != dim:
+        raise ConfigError("body_force.g", f"needs {dim} components, got {len(g)}")
+    if scene.terms.body_force and not any(g):
+        raise ConfigError("body_force.g", f"the {scene.name} scene is driven by a body force; give a non-zero g")
+    return tuple(g)
+
+
+def _time_step(v, cfg):
+    """dt, whether it is automatic, the step count, the output times and the run's limits at theta_0."""
+    mat, num, out = v["material"], v["numerics"], v["output"]
+    theta0, g = cfg.theta0, cfg.g
+    try:
+        # the run's limits at theta_0 (parsph.physics.limits): the refusal of a fixed dt and the first automatic dt
+        limits = dict(stability.run_limits(cfg, theta0, cfg.velocity_scale, math.sqrt(sum(x * x for x in g))))
+    except OverflowError:
+        key = "material.G_a" if abs(mat["G_a"] * theta0) >= abs(mat["G_b"]) else "material.G_b"
+        raise ConfigError(key, f"G(theta0) = 10^({mat['G_a']:g} theta0 + {mat['G_b']:g}) overflows") from None
+    dt_max = min(limits.values())
+    if num["dt"] == "auto":
+        dt, auto = num["dt_safety"] * dt_max, True
+    else:
+        dt, auto = num["dt"], False
+        if not dt > 0:
+            raise ConfigError("numerics.dt", f"must be positive or \"auto\", got {dt!r}")
+        if dt > dt_max and not num["allow_unstable_dt"]:
+            which = min(limits, key=limits.get)
+            raise ConfigError("numerics.dt", f"{dt:g} s is above the stability limit {dt_max:.3g} s "
+                              f"({which}); lower it, use \"auto\", or set numerics.allow_unstable_dt = true")
+    t_end = out["t_end"]
+    if not t_end / dt <= 1e12:
+        raise ConfigError("numerics.dt", f"t_end / dt = {t_end / dt:.3g} steps is more than 1e12")
+    nsteps = max(1, round(t_end / dt))
+    times = tuple(sorted(set(out["times"])))
+    for t in times:
+        if not 0 <= t <= t_end * (1 + 1e-12):
+            raise ConfigError("output.times", f"{t:g} s lies outside [0, t_end = {t_end:g} s]")
+    return dict(dt=dt, dt_auto=auto, nsteps=nsteps, output_times=times, limits=limits)
+
+
+def build(raw, text):
+    """Validate a raw run-file dict and derive the run's quantities."""
+    v = validate(raw)
+    mat, walls, num, out, terms = v["material"], v["walls"], v["numerics"], v["output"], v["terms"]
+    lat, hkey = _lattice(v)
+    dim = lat["dim"]
+    scene = get_scene(v["scene"]["name"])
+    layers = _wall_layers(v, lat, hkey, scene, get_kernel(num["kernel"], dim))
+    g = _body_force(v, dim, scene)
+    theta0 = mat["theta0"]
+    cfg = RunConfig(
+        values=v, text=text, **lat, layers=layers,
+        mass=mat["rho_s"] * theta0 * lat["dx"] * lat["dy"] * (lat["dz"] if dim == 3 else 1.0), rho_s=mat["rho_s"],
+        theta0=theta0, k=mat["k"], G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
+        kernel=num["kernel"], dt=0.0, dt_auto=False, t_end=out["t_end"], nsteps=0, output_times=(),
+        integrator=num["integrator"], g=g, scene=scene,
+        pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
+        viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
+    return replace(cfg, **_time_step(v, cfg))
+
+
+def load(path, overrides=()):
+    """Read, override and validate a run file."""
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise ConfigError("<file>", f"cannot read {path}: {e.strerror}") from None
+    try:
+        raw = tomllib.loads(data.decode("utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ConfigError("<file>", f"{path} is not valid TOML: {e}") from None
+    apply_overrides(raw, overrides)
+    return build(raw, dumps(raw))
+
+
+def loads(text, overrides=()):
+    """Validate a run file given as a TOML string."""
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError("<file>", f"not valid TOML: {e}") from None
+    apply_overrides(raw, overrides)
+    return build(raw, dumps(raw))

@@ -1,0 +1,95 @@
+"""Scenes: geometry, walls, body force, initial state and reference solution.
+
+A scene is one module defining ``SCENE = Scene(...)``: it declares the terms of
+Eq. (5) it needs and whether plates bound the fluid at x = 0 and x = L, builds
+the particles of one slab, and gives its reference profile. To add one: write
+``parsph/setup/scenes/<name>.py`` (``periodic_box.py`` is the smallest example), add
+the name to ``SCENE_NAMES`` below, and write ``run/<name>.toml``.
+"""
+from dataclasses import dataclass
+import importlib
+import math
+from typing import Callable, Optional
+
+import numpy as np
+
+from parsph.sph.particles import FLUID, WALL, MOVING_WALL
+
+SCENE_NAMES = ("couette", "poiseuille", "settling", "periodic_box")
+
+
+@dataclass(frozen=True)
+class Terms:
+    """Which terms of Eq. (5) a scene needs; the loops compute no others."""
+    pressure: bool = True
+    viscosity: bool = True
+    body_force: bool = False
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    terms: Terms
+    # particles(cfg, y_lo, y_hi) -> (gid, kind, mass, pos, vel) for y_lo <= y < y_hi
+    particles: Callable
+    # reference(cfg, x, t) -> {"vy": array} and/or {"theta": array}, or None
+    reference: Optional[Callable] = None
+    # the profile field that errors are reported for: "vy" or "theta"
+    error_field: str = "vy"
+    # velocity_scale(cfg): normalises v_y errors and enters the CFL limit [m/s]
+    velocity_scale: Callable = lambda cfg: abs(cfg.V_w)
+    # max_kinetic_energy(cfg, fluid_mass, t): bound on the fluid's kinetic energy [J/m]
+    max_kinetic_energy: Callable = lambda cfg, mass, t: math.inf
+    # plates at x = 0 and x = L (wall particles beyond them); else x is periodic with length L
+    walls: bool = True
+    # wall_theta(cfg, x) -> the volume fraction wall particles at x hold; None: theta_0
+    # (PHYSICS.md: wall theta is not evolved; held at theta_0 or mirrored)
+    wall_theta: Optional[Callable] = None
+    # current_scale(cfg, t) -> what is left of the flow at time t [m/s], for flows that decay:
+    # errors are then reported relative to it (None: to the fixed scale, V_w or theta_0)
+    current_scale: Optional[Callable] = None
+
+
+def error_scale(cfg, t):
+    """What errors of the scene's error field are relative to at time t: the current amplitude
+    of a decaying flow, else the fixed scale (the velocity scale, or theta_0 for theta)."""
+    if cfg.scene.current_scale is not None:
+        return float(cfg.scene.current_scale(cfg, t))
+    return cfg.velocity_scale if cfg.scene.error_field == "vy" else cfg.theta0
+
+
+def get_scene(name):
+    if name not in SCENE_NAMES:
+        raise KeyError(name)
+    return importlib.import_module(f"{__name__}.{name}").SCENE
+
+
+def lattice(cfg, y_lo, y_hi, right_wall=WALL, right_velocity=0.0):
+    """Fluid (and wall) particles of the slab y_lo <= y < y_hi on the square lattice.
+
+    Fluid at x = (i + 1/2) dx, i < Nx; with walls, ``cfg.layers`` columns
+    continue the lattice beyond x = 0 (fixed) and x = L (``right_wall``,
+    moving along y at ``right_velocity``). y = (j + 1/2) dy, z = (k + 1/2) dz.
+    The global id numbers lattice sites (``(k Ny + row) ncol + col``), so each
+    rank builds its own particles without communication.
+    """
+    nw = cfg.layers if cfg.scene.walls else 0
+    ncol = cfg.Nx + 2 * nw
+    col = np.arange(ncol)
+    x = (col - nw + 0.5) * cfg.dx
+    kind_col = np.where(col < nw, WALL, np.where(col >= nw + cfg.Nx, right_wall, FLUID))
+    rows = np.arange(cfg.Ny)
+    rows = rows[((rows + 0.5) * cfg.dy >= y_lo) & ((rows + 0.5) * cfg.dy < y_hi)]
+    layers = np.arange(cfg.Nz)
+    K, R, C = np.meshgrid(layers, rows, col, indexing="ij")
+    gid = ((K * cfg.Ny + R) * ncol + C).ravel()
+    pos = np.empty((gid.size, cfg.dim))
+    pos[:, 0] = x[C.ravel()]
+    pos[:, 1] = (R.ravel() + 0.5) * cfg.dy
+    if cfg.dim == 3:
+        pos[:, 2] = (K.ravel() + 0.5) * cfg.dz
+    kind = kind_col[C.ravel()]
+    vel = np.zeros_like(pos)
+    vel[kind == MOVING_WALL, 1] = right_velocity
+    mass = np.full(gid.size, cfg.mass)
+    return gid.astype(np.int64), kind.astype(np.int64), mass, pos, vel

@@ -1,0 +1,185 @@
+"""The run file's schema: every section and key with its type, default and bounds, and the validation of a
+raw run-file dict against it (:func:`validate`). Every problem raises :class:`ConfigError` naming the key.
+
+The key list with units is in docs/running.md ("Run-file keys").
+"""
+from dataclasses import dataclass
+import math
+
+from parsph.sph.integrators import INTEGRATORS
+from parsph.physics.kernels import KERNEL_NAMES
+from .scenes import SCENE_NAMES
+
+REQUIRED = object()
+
+
+class ConfigError(Exception):
+    """A bad run file: ``key`` names the offending key."""
+
+    def __init__(self, key, reason):
+        shown = repr(key) if len((key + ".").splitlines()) > 1 else key  # one line, always
+        super().__init__(f"{shown}: {reason}")
+        self.key = key
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class Key:
+    kind: str  # "float", "int", "str", "bool", "floatlist", "float_or_auto"
+    default: object = REQUIRED
+    positive: bool = False
+    nonnegative: bool = False
+    choices: tuple = ()
+    lo: float = None  # inclusive lower bound
+    hi: float = None  # exclusive upper bound
+    doc: str = ""
+
+
+SCHEMA = {
+    "scene": {
+        "name": Key("str", "couette", choices=SCENE_NAMES, doc="scene to run"),
+        "dim": Key("int", 2, choices=(2, 3), doc="spatial dimension (3: z periodic too)"),
+        "amplitude": Key("float", 0.01, doc="periodic_box: amplitude of the initial shear wave v_y [m/s]"),
+    },
+    "terms": {
+        "pressure": Key("bool", None, doc="the pressure term of Eq. (5) (default: as the scene declares)"),
+        "viscosity": Key("bool", None, doc="the viscous term of Eq. (5) (default: as the scene declares)"),
+    },
+    "domain": {
+        "L": Key("float", REQUIRED, positive=True, doc="plate distance [m]"),
+        "Ly": Key("float", None, positive=True, doc="periodic streamwise length [m] (default L)"),
+        "Lz": Key("float", None, positive=True, doc="periodic spanwise length in 3-D [m] (default Ly)"),
+    },
+    "material": {
+        "rho_s": Key("float", REQUIRED, positive=True, doc="solid material density [kg/m^3]"),
+        "theta0": Key("float", REQUIRED, positive=True, hi=1.0, doc="initial volume fraction"),
+        "k": Key("float", REQUIRED, nonnegative=True, doc="viscosity coefficient, mu_s = k theta [Pa s]"),
+        "G_a": Key("float", 8.76, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "G_b": Key("float", -1.183, doc="G = 10^(G_a theta + G_b) [Pa]"),
+    },
+    "walls": {
+        "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
+        "layers": Key("int", 0, nonnegative=True, hi=1000, doc="wall particle layers (0: the fewest covering 2h)"),
+        "beta_max": Key("float", 1.5, lo=1.0, doc="cap of the ghost velocity factor (Morris 1997)"),
+    },
+    "numerics": {
+        "Nx": Key("int", REQUIRED, lo=2, hi=2 ** 40, doc="particles across the channel"),
+        "h": Key("float", None, positive=True, doc="smoothing length [m] (or give h_over_dx)"),
+        "h_over_dx": Key("float", None, positive=True, doc="smoothing length in units of dx"),
+        "kernel": Key("str", "cubic_spline", choices=KERNEL_NAMES, doc="smoothing kernel"),
+        "dt": Key("float_or_auto", REQUIRED, doc="time step [s] or \"auto\""),
+        "dt_safety": Key("float", 1.0, positive=True, hi=1.0 + 1e-12,
+                         doc="factor on the stability limits for dt = \"auto\""),
+        "allow_unstable_dt": Key("bool", False, doc="run a dt above the stability limit (warns)"),
+        "integrator": Key("str", "paper", choices=INTEGRATORS,
+                          doc="time integrator: Eqs. (6)-(7), or explicit midpoint (second order)"),
+        "pressure_form": Key("str", "paper", choices=("paper", "consistent"),
+                             doc="Eq. (5) as printed (G at the pair mean; discretises grad(G theta)) or "
+                                 "p = G/(G_a ln 10), whose gradient is G grad theta"),
+        "skin": Key("float", 0.4, positive=True, hi=4.0,
+                    doc="neighbour-list skin in units of h: the list holds pairs within 2h + skin and is "
+                        "rebuilt when particles near each other moved more than the skin relative to each other"),
+        "viscosity_form": Key("str", "paper", choices=("paper", "symmetric"),
+                              doc="mu_i = k theta_i (paper) or the pair mean k (theta_i + theta_j)/2"),
+    },
+    "body_force": {
+        "g": Key("floatlist", None, doc="body force per unit mass [m/s^2], one entry per dimension"),
+    },
+    "output": {
+        "t_end": Key("float", REQUIRED, positive=True, doc="end time [s]"),
+        "times": Key("floatlist", (), doc="times of profile and snapshot output [s]"),
+        "snapshots": Key("bool", True, doc="write particle snapshots at the output times"),
+        "progress_interval": Key("float", 5.0, nonnegative=True, doc="seconds between progress lines (0: none)"),
+    },
+    "checks": {
+        "every": Key("int", 20, lo=1, hi=2 ** 40, doc="steps between run-time checks"),
+        "theta_change": Key("float", 0.5, positive=True,
+                            doc="largest accepted |theta - theta0| / theta0 of a fluid particle"),
+        "energy": Key("bool", True, doc="stop when the fluid's kinetic energy exceeds the scene's bound"),
+    },
+}
+
+
+def _float(key, value):
+    try:
+        return float(value)
+    except OverflowError:
+        raise ConfigError(key, "number too large") from None
+
+
+def _finite(key, value, what):
+    """A derived quantity must be a finite, positive float: else the key is out of range."""
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(key, f"out of range: {what} = {value!r}")
+    return value
+
+
+def _typed(key, spec, value):
+    """Check one value against its spec and return it converted."""
+    k = spec.kind
+    if k == "float_or_auto":
+        if value == "auto":
+            return value
+        k = "float"
+    if k == "float":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(key, f"expected a number, got {value!r}")
+        value = _float(key, value)
+        if not math.isfinite(value):
+            raise ConfigError(key, f"must be finite, got {value!r}")
+    elif k == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(key, f"expected an integer, got {value!r}")
+    elif k == "str":
+        if not isinstance(value, str):
+            raise ConfigError(key, f"expected a string, got {value!r}")
+    elif k == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(key, f"expected true or false, got {value!r}")
+    elif k == "floatlist":
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(key, f"expected a list of numbers, got {value!r}")
+        out = []
+        for v in value:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(_float(key, v)):
+                raise ConfigError(key, f"expected a list of finite numbers, got {value!r}")
+            out.append(float(v))
+        return tuple(out)
+    if spec.choices and value not in spec.choices:
+        raise ConfigError(key, f"must be one of {', '.join(map(str, spec.choices))}, got {value!r}")
+    if spec.positive and not value > 0:
+        raise ConfigError(key, f"must be positive, got {value!r}")
+    if spec.nonnegative and not value >= 0:
+        raise ConfigError(key, f"must not be negative, got {value!r}")
+    if spec.lo is not None and not value >= spec.lo:
+        raise ConfigError(key, f"must be at least {spec.lo:g}, got {value!r}")
+    if spec.hi is not None and not value < spec.hi:
+        raise ConfigError(key, f"must be below {spec.hi:g}, got {value!r}")
+    return value
+
+
+def validate(raw):
+    """Return {section: {key: value}} with defaults filled in, or raise ConfigError."""
+    if not isinstance(raw, dict):
+        raise ConfigError("<file>", "not a TOML table")
+    out = {}
+    for section in raw:
+        if section not in SCHEMA:
+            raise ConfigError(section, f"unknown section (known: {', '.join(SCHEMA)})")
+        if not isinstance(raw[section], dict):
+            raise ConfigError(section, "expected a table [" + section + "]")
+    for section, keys in SCHEMA.items():
+        given = raw.get(section, {})
+        for key in given:
+            if key not in keys:
+                raise ConfigError(f"{section}.{key}", f"unknown key (known in [{section}]: {', '.join(keys)})")
+        out[section] = {}
+        for key, spec in keys.items():
+            name = f"{section}.{key}"
+            if key in given:
+                out[section][key] = _typed(name, spec, given[key])
+            elif spec.default is REQUIRED:
+                raise ConfigError(name, "missing (required)")
+            else:
+                out[section][key] = spec.default
+    return out

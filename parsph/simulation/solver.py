@@ -1,0 +1,354 @@
+"""The time loop: Python orchestration of the numba stages over one slab.
+
+One step (state at t_n -> t_{n+1}), paper integrator:
+
+  sync:      ghosts' positions from their owners -> validity test of the
+             neighbour list -> one all-reduce (blow-up, stop signal,
+             rebuild) -> [rebuild: wrap, migrate, ghosts, images, list]
+  rates:     density Eq. (3) -> ghosts' rho -> momentum Eq. (5)
+  [output, checks]
+  advance:   Eqs. (6)-(7) for the owned particles
+
+The neighbour list (:mod:`parsph.sph.neighbours`) is rebuilt only when the test
+says it may miss a pair, when a snapshot is due (so that a restart, which
+starts with a fresh list, continues bit for bit) and after a stop signal.
+Every rank takes the same decision (an all-reduce of a quantity that does
+not depend on the decomposition), so every rank count rebuilds on the same
+steps and the results do not depend on it, bit for bit.
+
+The communicator is passed in; one rank is the same code path (the rank is
+its own neighbour across the periodic boundary).
+"""
+import math
+import time
+from collections import defaultdict
+
+import numpy as np
+
+from parsph.sph import integrators
+from parsph.physics import limits
+from parsph.parallel.collectives import Collectives
+from parsph.parallel.slab_ring import SlabRing
+from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
+from parsph.physics.kernels import get_kernel, lattice_sum
+from parsph.sph.neighbours import cell_coords, grid_for
+from parsph.output import Frame, read_particles
+from parsph.sph.particles import FLUID, Particles, state_maxima
+from parsph.sph.profiles import bin_centres, bin_sums, errors
+from parsph.sph.rates import Rates
+from parsph.sph import pass_data
+
+PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
+GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
+
+
+class Interrupted(RuntimeError):
+    """A stop was requested (signal); raised on every rank alike after the last output."""
+
+    def __init__(self, message, signum):
+        super().__init__(message)
+        self.signum = signum
+
+
+class Simulation:
+    def __init__(self, cfg, comm, state=None):
+        """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run."""
+        self.cfg = cfg
+        self.comm = comm
+        self._restore = False  # the first build takes the list's reference positions from a snapshot
+        self.scene = cfg.scene
+        self.kernel = get_kernel(cfg.kernel, cfg.dim)
+        self.skin = cfg.get("numerics.skin") * cfg.h
+        self.grid = grid_for(cfg, self.kernel)
+        walls = self.scene.walls
+        self._grid_params = self.grid.params()
+        self.ring = SlabRing(comm, cfg.Ly, self.grid)
+        self.ps = self._particles(state)
+        ps = self.ps
+        ps.add_field("ref")  # positions at the last build of the neighbour list
+        self.position_fields = ("pos",)
+        if cfg.integrator == "midpoint":
+            ps.add_field("pos0")
+            ps.add_field("vel0")
+            self.position_fields = ("pos", "pos0")
+        self._hold_wall_density()
+        self.g = np.zeros(3)
+        if self.scene.terms.body_force:
+            self.g[:cfg.dim] = cfg.g
+        self.period_x = 0.0 if walls else cfg.L
+        sw = pass_data.switch
+        switches = (sw(cfg.pressure), sw(cfg.viscosity), sw(cfg.get("numerics.viscosity_form") == "symmetric"),
+                    sw(walls), sw(cfg.get("numerics.pressure_form") == "consistent"))
+        self.step = 0 if state is None else int(state["attrs"]["step"])
+        self.t = 0.0 if state is None else float(state["attrs"]["time"])
+        self.dt = cfg.dt if state is None else float(state["attrs"]["dt"])
+        self.timers = defaultdict(float)
+        self.rates = Rates(self.kernel, cfg.h, cfg.dim, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L, cfg.beta_max,
+                           self.g, switches, self.grid, self.skin)
+        self.collect = Collectives(comm)
+        self.n_total = self.collect.total(ps.n_own)
+        self.nbins = cfg.Nx
+        self._sums = np.zeros((3, self.nbins))
+        self._flags = np.zeros(3)
+        self._flags_all = np.zeros(3)
+        self._built = False      # no list yet: the first evaluation builds one
+        self._bad = 0            # non-finite or jumping particles left by the last integration (this rank)
+        self._stop_local = 0     # signal seen by this rank since the last sync
+        self.force_rebuild = False
+        self.stop = 0
+        self.rebuilds = 0
+
+    def _particles(self, state):
+        """This slab's particles: from the scene, from a snapshot (``state["path"]``) or from arrays."""
+        cfg = self.cfg
+        if state is None:
+            return Particles.from_arrays(*self.scene.particles(cfg, self.ring.lo, self.ring.hi))
+        if "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
+            p = read_particles(state["path"], self.comm, self.ring.lo, self.ring.hi)
+            exact = "ref" in p  # the solver's state as it held it: continue from the same neighbour list
+            ps = Particles.from_arrays(p["id"], p["kind"].astype(np.int64), p["mass"],
+                                       p["position_raw"] if exact else p["position"], p["velocity"])
+            if exact:
+                ps.add_field("ref")
+                ps.ref[:ps.n_own] = p["ref"]
+                self._restore = True
+            return ps
+        # a state given as arrays (id, kind, mass, position, velocity): this slab's rows
+        y = state["position"][:, 1]
+        mine = (y >= self.ring.lo) & (y < self.ring.hi)
+        return Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64),
+                                     state["mass"][mine], state["position"][mine], state["velocity"][mine])
+
+    def _hold_wall_density(self):
+        """Walls hold the density that Eq. (3) gives inside the initial lattice, so that the undisturbed
+        lattice is in equilibrium next to a wall; scaled by the scene's wall_theta(x) / theta_0 where it
+        has one (a function of x, which walls keep: a restart finds the same values)."""
+        cfg, ps = self.cfg, self.ps
+        self.rho_wall = cfg.mass * lattice_sum(self.kernel, cfg.h, cfg.spacing)
+        ps.rho[:ps.n] = self.rho_wall
+        if self.scene.wall_theta is not None:
+            wall = ps.kind[:ps.n] != FLUID
+            ps.rho[:ps.n][wall] *= self.scene.wall_theta(cfg, ps.pos[:ps.n][wall, 0]) / cfg.theta0
+
+    # ---- the neighbour list ---------------------------------------------------------
+    def _sync(self):
+        """Refresh the ghosts, test the list, agree (one all-reduce) on blow-up, stop and rebuild."""
+        if not self._built:
+            self._rebuild(restore=self._restore)
+            self._restore = False
+        t0 = time.perf_counter()
+        ps = self.ps
+        n = ps.n_own
+        np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])  # positions may have changed (a step, a caller)
+        self.ring.forward(ps)
+        spread = self.rates.spread(ps)
+        f = self._flags
+        f[0] = self._bad
+        f[1] = self._stop_local
+        f[2] = 1.0 if (self.force_rebuild or not spread < self.skin) else 0.0
+        self._flags_all = self.collect.max(f)
+        self._bad = 0
+        self._stop_local = 0
+        self.timers["sync"] += time.perf_counter() - t0
+        bad, stop, rebuild = self._flags_all
+        if bad:
+            self.check()  # raises GuardError on every rank
+        if stop:
+            self.stop = int(stop)
+        if rebuild:
+            self._rebuild()
+        self.force_rebuild = False
+
+    def _rebuild(self, restore=False):
+        """Wrap, migrate, choose the ghosts and images, build the list (collective).
+
+        The list is built from the reference positions ``ref``: the current
+        ones, wrapped into the box, except on ``restore``, where ``ref`` came
+        from a snapshot with the positions as the writing run held them, so
+        that the same list is built again and the run continues bit for bit.
+        """
+        t0 = time.perf_counter()
+        ps, ring = self.ps, self.ring
+        ps.n = ps.n_own
+        if not restore:
+            ring.wrap(ps, self.position_fields)
+            ps.ref[:ps.n_own] = ps.pos[:ps.n_own]
+        ring.migrate(ps, "ref")
+        n = ps.n_own
+        origin, side, ncell, periodic = self._grid_params
+        coords = np.zeros((ps.capacity, 3), np.int64)
+        cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
+        # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
+        local = ring.local_box(ps.dim)
+        order = self.rates.sort_owned(coords, ps.gid, n, local)
+        ps.reorder_owned(order)
+        coords[:n] = coords[order]
+        coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
+        coords = ring.add_images(ps, coords, GHOST_FIELDS)
+        ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
+        self.rates.build(ps, coords, local)
+        self._built = True
+        self.rebuilds += 1
+        self.timers["rebuild"] += time.perf_counter() - t0
+
+    # ---- one evaluation of the right-hand side -------------------------------
+    def compute_rates(self):
+        """Density, theta and accelerations of the owned particles at the current state."""
+        self._sync()
+        self.rates(self.ps, self.ring, self.timers)
+
+    def advance(self, dt, stop_requested=None):
+        """One step of the chosen integrator; the particles stay on this rank until the next rebuild.
+
+        ``stop_requested()`` (a signal number, 0 for none) is polled once;
+        the next evaluation agrees on it over all ranks (``self.stop``).
+        """
+        ps, T, cfg = self.ps, self.timers, self.cfg
+        t0 = time.perf_counter()
+        n = ps.n_own
+        if cfg.integrator == "paper":
+            bad = integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h)
+        else:
+            bad = integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
+            T["integrate"] += time.perf_counter() - t0
+            self._bad = bad
+            self.compute_rates()
+            t0 = time.perf_counter()
+            n = ps.n_own
+            bad = integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
+        self.step += 1
+        self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
+        self._bad = bad
+        self._stop_local = stop_requested() if stop_requested is not None else 0
+        T["integrate"] += time.perf_counter() - t0
+
+    def stable_dt(self):
+        """The largest stable step for the current state (global minimum over ranks)."""
+        ps, cfg = self.ps, self.cfg
+        local = np.array(state_maxima(ps.vel, ps.acc, ps.theta, ps.kind, ps.n_own, cfg.theta0))
+        vmax, theta_max, amax = self.collect.max(local)
+        theta_max = min(theta_max, 0.999)
+        return limits.stable_dt(cfg, theta_max, vmax, amax)[0]   # config.build's limits, at the current state
+
+    # ---- reductions ------------------------------------------------------------
+    def profile(self):
+        """Global v_y(x) and theta(x): per-bin sums and counts all-reduced over ranks.
+
+        Returns a dict: x, vy, theta, count, the scene's reference profiles
+        (vy_exact, theta_exact; NaN where it has none) and (err_max, err_rms)
+        of its error field, normalised by V_w (velocity) or theta_0 (theta).
+        """
+        ps, cfg = self.ps, self.cfg
+        bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self.period_x,
+                 self._sums)
+        sums = self.collect.sum(self._sums)
+        count = sums[2]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = {"x": bin_centres(cfg.L, self.nbins), "vy": sums[0] / count, "theta": sums[1] / count,
+                   "count": count}
+        ref = self.scene.reference(cfg, out["x"], self.t) if self.scene.reference else {}
+        for key in ("vy", "theta"):
+            out[key + "_exact"] = ref.get(key, np.full(self.nbins, np.nan))
+        field = self.scene.error_field
+        scale = cfg.velocity_scale if field == "vy" else cfg.theta0
+        out["err"] = errors(out[field], out[field + "_exact"], scale) if field in ref else (math.nan, math.nan)
+        return out
+
+    def check(self):
+        """Collective run-time checks (:mod:`parsph.simulation.guards`); on failure every rank raises GuardError."""
+        t0 = time.perf_counter()
+        try:
+            run_checks(self.collect, self.ps, self.cfg, self.step, self.t)
+        finally:
+            self.timers["checks"] += time.perf_counter() - t0
+
+    def particles(self):
+        """The owned particles as an output writes them (read-only views; ``position`` wrapped into the
+        box, a copy; ``position_raw`` and ``ref`` as the solver holds them, for a restart)."""
+        ps, n = self.ps, self.ps.n_own
+        pos = ps.pos[:n].copy()
+        for axis in range(ps.dim):
+            a = self.grid.axes[axis]
+            if a.periodic:
+                pos[:, axis] %= a.period
+        fields = {"id": ps.gid[:n], "kind": ps.kind[:n], "mass": ps.mass[:n], "position": pos,
+                  "velocity": ps.vel[:n], "theta": ps.theta[:n], "position_raw": ps.pos[:n], "ref": ps.ref[:n]}
+        for v in fields.values():
+            if v is not pos:
+                v.flags.writeable = False  # views of the solver's arrays
+        return fields
+
+    def frame(self, snapshot=True):
+        """What an output writes: time, step, dt, the profile and (``snapshot``) the owned particles."""
+        return Frame(self.t, self.step, self.dt, self.profile(), self.particles() if snapshot else None)
+
+    # ---- the loop ----------------------------------------------------------------
+    def _output_due(self, t_out):
+        if not self.cfg.dt_auto:
+            return self.step == round(t_out / self.cfg.dt)
+        return self.t >= t_out * (1 - 1e-12) - 1e-300
+
+    def run(self, output=None, progress=None, stop_requested=None, observe=None):
+        """Advance to t_end; ``output(frame, snapshot)`` at each output time, ``progress(sim, rate, eta)``.
+
+        ``observe(sim)`` is called at every step once the rates are evaluated, before the checks
+        (reading ``sim.step``, ``sim.t``, ``sim.particles()``, ``sim.profile()``); it must not change
+        the state, and may raise to end the run.
+
+        ``stop_requested()`` (a signal number, 0 for none) is polled every
+        step; when it is set on any rank the run writes a final output with
+        particles and raises Interrupted on every rank with the same number.
+        """
+        cfg = self.cfg
+        pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
+        if self.step > 0:  # restart: the restart state itself was output already
+            pending = [t for t in pending if not self._output_due(t)]
+        check_every = cfg.get("checks.every")
+        interval = cfg.get("output.progress_interval")
+        t_start = last = time.perf_counter()
+        step0, tsim0 = self.step, self.t
+        stop = 0
+        snapshots = cfg.get("output.snapshots")
+        while True:
+            self.compute_rates()
+            stop = self.stop
+            while pending and self._output_due(pending[0]) and output is not None:
+                t0 = time.perf_counter()
+                output(self.frame(snapshots), snapshot=snapshots)
+                pending.pop(0)
+                self.timers["output"] += time.perf_counter() - t0
+            done = self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
+            if observe is not None:
+                observe(self)
+            if self.step % check_every == 0 or done:
+                self.check()
+            if done:
+                break
+            if stop:
+                if output is not None:
+                    output(self.frame(True), snapshot=True)
+                raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; "
+                                  f"the last output is a restart point", stop)
+            if cfg.dt_auto:
+                dt = cfg.get("numerics.dt_safety") * self.stable_dt()
+                target = min(pending[0], cfg.t_end) if pending else cfg.t_end
+                remaining = target - self.t
+                land = remaining <= dt
+                if land:
+                    dt = remaining
+                elif remaining < 2 * dt:  # two equal steps, not a sliver
+                    dt = 0.5 * remaining
+                self.dt = dt
+                self.advance(dt, stop_requested)
+                if land:
+                    self.t = target
+            else:
+                self.advance(self.dt, stop_requested)
+            now = time.perf_counter()
+            if progress is not None and interval > 0 and now - last >= interval:
+                last = now
+                rate = self.n_total * (self.step - step0) / (now - t_start)
+                eta = (cfg.t_end - self.t) * (now - t_start) / max(self.t - tsim0, 1e-300)
+                progress(self, rate, eta)
+        self.wall_time = time.perf_counter() - t_start
+        return self

@@ -1,0 +1,88 @@
+"""The data the passes of :mod:`parsph.sph.equations` take, as named groups that numba compiles like its other
+arguments: the neighbour list and the arrays indexed like it (:class:`PairList`), the particles' fields
+(:class:`ParticleArrays`), the run's numbers (:class:`Constants`), the terms a scene uses
+(:class:`Switches`) and the threaded passes' scratch (:class:`Gather`). A field added to a group reaches
+every pass through the group.
+
+The switches are compile-time constants made by :func:`switch`: an empty
+tuple is off, ``(1,)`` is on, so each value is its own type, numba compiles
+one version per combination a scene uses, and a term switched off leaves no
+branch in the pair loop.
+"""
+from typing import NamedTuple
+
+import numpy as np
+
+ON, OFF = (1,), ()
+# columns of the per-particle row the pair loops read (``PairList.fields``)
+VX, VY, VZ, THETA, INV_RHO, INV_THETA, PRESS = 0, 1, 2, 3, 4, 5, 6
+
+
+def switch(flag):
+    """A compile-time switch for the loops below."""
+    return ON if flag else OFF
+
+
+class Switches(NamedTuple):
+    """The terms of Eq. (5) a scene uses and its dimension, each :data:`ON` or :data:`OFF`."""
+    pressure: tuple
+    viscosity: tuple
+    symmetric_mu: tuple  # mu of a pair: k (theta_i + theta_j) / 2 instead of k theta_i
+    walls: tuple         # plates bound the box: wall particles get beta (Morris et al. 1997)
+    consistent: tuple    # pressure as the symmetric SPH gradient of p = G / (G_a ln 10)
+    three_d: tuple
+
+
+class Constants(NamedTuple):
+    """The numbers of a run the passes use: the kernel's and Eq. (5)'s."""
+    kid: int           # kernel id (kernels.kernel_w_f)
+    inv_h: float
+    norm: float        # the kernel's normalisation at h
+    w0: float          # W(0), a particle's own term in Eq. (3)
+    rho_s: float
+    G_a: float
+    G_b: float
+    k_visc: float      # mu_s = k theta
+    L: float           # distance of the plates (beta)
+    beta_max: float
+    g: np.ndarray      # body force, 3 components
+
+
+class PairList(NamedTuple):
+    """The neighbour list of one build (:mod:`parsph.sph.neighbours`) and the arrays indexed like it."""
+    order: np.ndarray    # order[a]: the particle at sorted place a
+    pstart: np.ndarray   # the pairs of place a (with later places): pstart[a] .. pstart[a+1]-1
+    pi: np.ndarray       # the pairs' members
+    pj: np.ndarray
+    need: np.ndarray     # the particles that receive sums: the owned fluid
+    n: int               # local particles (owned, ghosts, images) at the build
+    npairs: int
+    fp: np.ndarray       # (dW/dr)/r per pair: the density pass writes it, the momentum pass reads it
+    rho_sum: np.ndarray  # Eq. (3) per particle
+    fields: np.ndarray   # per particle the row a pair reads: columns VX .. PRESS
+
+
+class Gather(NamedTuple):
+    """The threaded passes' scratch: each particle's pairs in pair order and the values per pair."""
+    offset: np.ndarray  # the entries of particle k: offset[k] .. offset[k+1]-1
+    entry: np.ndarray   # 2 p + side (side 1: the particle is pj[p]); neighbours.build_entries
+    wp: np.ndarray      # W per pair
+    Pp: np.ndarray      # pressure factor P per pair
+    Vp: np.ndarray      # viscous factor V per pair
+
+
+class ParticleArrays(NamedTuple):
+    """The fields of a :class:`parsph.sph.particles.Particles` set the passes read and write."""
+    pos: np.ndarray
+    vel: np.ndarray
+    mass: np.ndarray
+    kind: np.ndarray
+    rho: np.ndarray
+    theta: np.ndarray
+    acc: np.ndarray
+    n_own: int
+
+
+def particle_arrays(ps):
+    """The passes' view of a Particles set (its arrays, not copies)."""
+    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own)
