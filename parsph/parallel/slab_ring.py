@@ -27,11 +27,13 @@ cell grid.
 import numpy as np
 from mpi4py import MPI
 
+from . import native_mpi
 from .halo_rows import pack_forward, pack_scalar, unpack_forward, unpack_scalar
+from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
 from parsph.sph.neighbours import CellBox
 from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
 
-TAG_UP, TAG_DOWN, TAG_MOVE_UP, TAG_MOVE_DOWN = 11, 12, 13, 14
+TAG_MOVE_UP, TAG_MOVE_DOWN = 13, 14
 
 
 class SlabRing:
@@ -69,6 +71,7 @@ class SlabRing:
         self.img_shift = np.zeros(0)
         self.n_images = 0
         self._bufs = {}
+        self._handles = None  # native_mpi.handles of comm, made with the first plan
         self._status = MPI.Status()
         self._flag = np.zeros(1, np.int64)
         self._flag_all = np.zeros(1, np.int64)
@@ -137,6 +140,24 @@ class SlabRing:
         below, above = self._exchange("scalar", nu, nd, 1)
         unpack_scalar(below[:, 0], above[:, 0], ps.n_own, arr, self.img_src,
                        ps.n_own + self.n_below + self.n_above)
+
+    def plan(self, dim):
+        """The ghosts' messages of this build for the compiled sync (:mod:`parsph.parallel.native_halo`),
+        on the same buffers as :meth:`forward` and :meth:`refresh`; None where native MPI is unavailable."""
+        if not native_mpi.available()[0]:
+            return None
+        if self._handles is None:
+            self._handles = native_mpi.handles(self.comm)
+            self._reqs = native_mpi.requests(4)
+        nu, nd, nb, na = len(self.send_up), len(self.send_down), self.n_below, self.n_above
+        w = 3 * dim
+        f = [self._buf((side, "fwd"), k, w) for side, k in (("send up", nu), ("send down", nd),
+                                                             ("recv below", nb), ("recv above", na))]
+        s = [self._buf((side, "scalar"), k, 1) for side, k in (("send up", nu), ("send down", nd),
+                                                                ("recv below", nb), ("recv above", na))]
+        return HaloPlan(self._handles, self.left, self.right, self.send_up, self.send_down, nb, na,
+                        float(self.shift_below), float(self.shift_above), self.img_src, self.img_axis,
+                        self.img_shift, *f, *s, *self._reqs)
 
     # -- at a rebuild -------------------------------------------------------------------
     def owner(self, y):

@@ -25,8 +25,11 @@ from collections import defaultdict
 
 import numpy as np
 
+import numba
+
 from parsph.sph import integrators
 from parsph.physics import limits
+from parsph.parallel import native_mpi
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
 from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
@@ -35,10 +38,13 @@ from parsph.sph.neighbours import cell_coords, grid_for
 from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, state_maxima
 from parsph.sph.profiles import bin_centres, bin_sums, errors
-from parsph.sph.rates import Rates
+from parsph.sph.rates import Rates, compiled, kinds
 from parsph.sph import pass_data
+from . import block
+from .block import CODES, Modes, Motion, Rule
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
+BLOCK_SECONDS = 0.1  # a compiled block's length: the stop signal is polled (and progress shown) between blocks
 GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
 
 
@@ -51,8 +57,11 @@ class Interrupted(RuntimeError):
 
 
 class Simulation:
-    def __init__(self, cfg, comm, state=None):
-        """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run."""
+    def __init__(self, cfg, comm, state=None, native=None):
+        """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run.
+
+        ``native``: send the step's messages from compiled code (:mod:`parsph.parallel.native_mpi`);
+        None (default) where the bindings load, False for the mpi4py path (the same arithmetic)."""
         self.cfg = cfg
         self.comm = comm
         self._restore = False  # the first build takes the list's reference positions from a snapshot
@@ -97,6 +106,51 @@ class Simulation:
         self.force_rebuild = False
         self.stop = 0
         self.rebuilds = 0
+        self._init_blocks(native)
+
+    def _init_blocks(self, native):
+        """The compiled step's state: where MPI can be called from compiled code (else the Python path)."""
+        cfg = self.cfg
+        self.native, self.native_why = native_mpi.available()
+        if native is False:
+            self.native, self.native_why = False, "native=False"
+        self._ctl = np.zeros(block.N_CTL)
+        self._ictl = np.zeros(block.N_ICTL, np.int64)
+        self._scratch = np.zeros(12)
+        self._timers_block = np.zeros(len(block.TIMER_PHASES))
+        self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
+                          float(limits.THETA_STEP), float(self.skin))
+        self._lin = (-1.0, math.inf)  # (theta bucket, its linear limit) of the auto rule; none yet
+        self._block_steps = 1
+        self._block_args = None
+        self._block_fn = None
+        self._block_versions = {}
+        dim = cfg.dim
+        self._no_gather = pass_data.Gather(np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(0), np.zeros(0),
+                                           np.zeros(0))
+        self._no_state = np.zeros((0, dim))
+
+    def _block(self):
+        """The compiled block for this build's argument types (compiled or loaded from the cache once)."""
+        if self._block_args is None:
+            ps, R, cfg = self.ps, self.rates, self.cfg
+            threaded = numba.get_num_threads() > 1
+            mid = cfg.integrator == "midpoint"
+            motion = Motion(ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self._no_state,
+                            ps.vel0 if mid else self._no_state)
+            modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
+            self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, R.cells,
+                                R.local, R.box, R.work, R.consts, R.switches,
+                                R.gather_arrays() if threaded else self._no_gather, self._rule, modes, self._ctl,
+                                self._ictl, self._timers_block, self._scratch)
+            self._block_fn = None
+        if self._block_fn is None:
+            key = kinds(self._block_args)
+            fn = self._block_versions.get(key)
+            if fn is None:
+                fn = self._block_versions[key] = compiled(block.run_block, *self._block_args)
+            self._block_fn = fn
+        return self._block_fn
 
     def _particles(self, state):
         """This slab's particles: from the scene, from a snapshot (``state["path"]``) or from arrays."""
@@ -147,17 +201,21 @@ class Simulation:
         f[1] = self._stop_local
         f[2] = 1.0 if (self.force_rebuild or not spread < self.skin) else 0.0
         self._flags_all = self.collect.max(f)
+        self.timers["sync"] += time.perf_counter() - t0
+        self._act(self._flags_all)
+
+    def _act(self, flags):
+        """What the agreed flags of a sync (bad, stop, rebuild) ask: the checks, the stop, a rebuild."""
         self._bad = 0
         self._stop_local = 0
-        self.timers["sync"] += time.perf_counter() - t0
-        bad, stop, rebuild = self._flags_all
+        self.force_rebuild = False
+        bad, stop, rebuild = flags
         if bad:
             self.check()  # raises GuardError on every rank
         if stop:
             self.stop = int(stop)
         if rebuild:
             self._rebuild()
-        self.force_rebuild = False
 
     def _rebuild(self, restore=False):
         """Wrap, migrate, choose the ghosts and images, build the list (collective).
@@ -187,6 +245,7 @@ class Simulation:
         coords = ring.add_images(ps, coords, GHOST_FIELDS)
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
         self.rates.build(ps, coords, local)
+        self._block_args = None  # the compiled block's arguments are this build's arrays
         self._built = True
         self.rebuilds += 1
         self.timers["rebuild"] += time.perf_counter() - t0
@@ -208,19 +267,29 @@ class Simulation:
         n = ps.n_own
         if cfg.integrator == "paper":
             bad = integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h)
+            T["integrate"] += time.perf_counter() - t0
         else:
             bad = integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
             T["integrate"] += time.perf_counter() - t0
             self._bad = bad
             self.compute_rates()
-            t0 = time.perf_counter()
-            n = ps.n_own
-            bad = integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
-        self.step += 1
-        self.t = self.step * cfg.dt if not cfg.dt_auto else self.t + dt
-        self._bad = bad
+            bad = self._correct(dt)
+        self._count_step(dt, bad)
         self._stop_local = stop_requested() if stop_requested is not None else 0
-        T["integrate"] += time.perf_counter() - t0
+
+    def _correct(self, dt):
+        """The midpoint integrator's second half (the rates at the midpoint are computed)."""
+        ps, cfg = self.ps, self.cfg
+        t0 = time.perf_counter()
+        bad = integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
+                                           ps.jump, cfg.h)
+        self.timers["integrate"] += time.perf_counter() - t0
+        return bad
+
+    def _count_step(self, dt, bad):
+        self.step += 1
+        self.t = self.step * self.cfg.dt if not self.cfg.dt_auto else self.t + dt
+        self._bad = bad
 
     def stable_dt(self):
         """The largest stable step for the current state (global minimum over ranks)."""
@@ -295,9 +364,10 @@ class Simulation:
         (reading ``sim.step``, ``sim.t``, ``sim.particles()``, ``sim.profile()``); it must not change
         the state, and may raise to end the run.
 
-        ``stop_requested()`` (a signal number, 0 for none) is polled every
-        step; when it is set on any rank the run writes a final output with
-        particles and raises Interrupted on every rank with the same number.
+        ``stop_requested()`` (a signal number, 0 for none) is polled between
+        blocks of steps (at most about ``BLOCK_SECONDS`` apart); when it is set
+        on any rank the run writes a final output with particles and raises
+        Interrupted on every rank with the same number.
         """
         cfg = self.cfg
         pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
@@ -309,8 +379,8 @@ class Simulation:
         step0, tsim0 = self.step, self.t
         stop = 0
         snapshots = cfg.get("output.snapshots")
+        self.compute_rates()
         while True:
-            self.compute_rates()
             stop = self.stop
             while pending and self._output_due(pending[0]) and output is not None:
                 t0 = time.perf_counter()
@@ -329,21 +399,7 @@ class Simulation:
                     output(self.frame(True), snapshot=True)
                 raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; "
                                   f"the last output is a restart point", stop)
-            if cfg.dt_auto:
-                dt = cfg.get("numerics.dt_safety") * self.stable_dt()
-                target = min(pending[0], cfg.t_end) if pending else cfg.t_end
-                remaining = target - self.t
-                land = remaining <= dt
-                if land:
-                    dt = remaining
-                elif remaining < 2 * dt:  # two equal steps, not a sliver
-                    dt = 0.5 * remaining
-                self.dt = dt
-                self.advance(dt, stop_requested)
-                if land:
-                    self.t = target
-            else:
-                self.advance(self.dt, stop_requested)
+            self._advance(pending, check_every, 1 if observe is not None else None, stop_requested)
             now = time.perf_counter()
             if progress is not None and interval > 0 and now - last >= interval:
                 last = now
@@ -352,3 +408,96 @@ class Simulation:
                 progress(self, rate, eta)
         self.wall_time = time.perf_counter() - t_start
         return self
+
+    # ---- whole steps -------------------------------------------------------------------
+    def step_once(self, stop_requested=None, target=None):
+        """One step on the Python path (mpi4py messages), from a state whose rates are computed:
+        the auto rule's dt (landing on ``target``, default t_end), Eqs. (6)-(7), the next rates."""
+        cfg = self.cfg
+        if cfg.dt_auto:
+            dt = cfg.get("numerics.dt_safety") * self.stable_dt()
+            target = cfg.t_end if target is None else target
+            remaining = target - self.t
+            land = remaining <= dt
+            if land:
+                dt = remaining
+            elif remaining < 2 * dt:  # two equal steps, not a sliver
+                dt = 0.5 * remaining
+            self.dt = dt
+            self.advance(dt, stop_requested)
+            if land:
+                self.t = target
+        else:
+            self.advance(self.dt, stop_requested)
+        self.compute_rates()
+
+    def _advance(self, pending, check_every, most=None, stop_requested=None):
+        """At least one step, up to the next output, check or end (``most`` steps at most), in compiled
+        blocks where the messages can be sent from compiled code, else step by step."""
+        cfg = self.cfg
+        target = min(pending[0], cfg.t_end) if pending else cfg.t_end
+        if not self.native:
+            self.step_once(stop_requested, target)
+            return
+        stop_step = (self.step // check_every + 1) * check_every
+        if not cfg.dt_auto:
+            stop_step = min(stop_step, cfg.nsteps)
+            if pending:
+                stop_step = min(stop_step, max(round(pending[0] / cfg.dt), self.step + 1))
+        stop_step = min(stop_step, self.step + (most or self._block_steps))
+        self._stop_local = stop_requested() if stop_requested is not None else 0
+        self._run_blocks(stop_step, target)
+
+    def _run_blocks(self, stop_step, target):
+        """Compiled blocks to ``stop_step`` (or the landing on ``target``): the codes of :mod:`.block`."""
+        ctl, ictl = self._ctl, self._ictl
+        t0 = time.perf_counter()
+        steps0 = self.step
+        while True:
+            ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, target
+            ctl[block.STOP_IN], ctl[block.FORCE_IN], ctl[block.STOP_OUT] = self._stop_local, self.force_rebuild, 0.0
+            ctl[block.LIN_THETA], ctl[block.LIN_DT] = self._lin
+            ictl[block.STEP], ictl[block.STOP_STEP] = self.step, stop_step
+            code = self._block()(*self._block_args)
+            self.t, self.dt, self.step = float(ctl[block.T]), float(ctl[block.DT]), int(ictl[block.STEP])
+            self._bad = self._stop_local = 0
+            self.force_rebuild = False
+            if ctl[block.STOP_OUT]:
+                self.stop = int(ctl[block.STOP_OUT])
+            self._add_block_timers()
+            if code == block.NEED_LIMIT:
+                self._new_limit()
+                continue
+            if code == block.MPI_ERROR:
+                raise RuntimeError("an MPI call of the compiled step failed")
+            if code in (block.REBUILD, block.BAD, block.REBUILD_MID, block.BAD_MID):
+                self._finish_step(code)
+            break
+        took = time.perf_counter() - t0
+        if self.step > steps0 and took > 0:  # the next block's length: about BLOCK_SECONDS of steps
+            per_step = took / (self.step - steps0)
+            self._block_steps = max(1, min(100_000, int(BLOCK_SECONDS / per_step)))
+
+    def _finish_step(self, code):
+        """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates;
+        at the midpoint, the second half and the step's last sync too."""
+        self._act(self._scratch[3:6].copy())
+        self.rates(self.ps, self.ring, self.timers)
+        if code in (block.REBUILD_MID, block.BAD_MID):
+            self._count_step(self.dt, self._correct(self.dt))
+            if self._ctl[block.LAND]:
+                self.t = float(self._ctl[block.T_TARGET])
+            self.compute_rates()
+
+    def _new_limit(self):
+        """The linear limit of the bucket the agreed largest theta is in (the auto rule, Python's side)."""
+        theta_max = min(float(self._scratch[10]), 0.999)
+        bucket = block.bucket(theta_max, limits.THETA_STEP)
+        lim = limits.run_limits(self.cfg, bucket, 0.0, 0.0)
+        self._lin = (bucket, min(lim.values()))
+
+    def _add_block_timers(self):
+        tb = self._timers_block
+        for k, name in enumerate(block.TIMER_PHASES):
+            self.timers[name] += float(tb[k])
+        tb[:] = 0.0

@@ -143,7 +143,8 @@ class Rates:
         """The largest displacement spread over the blocks of this rank (the list holds while below the skin)."""
         return self._run("block_spread", ps.disp, self.cells, self.local, self.box, self.work)
 
-    def _gather_arrays(self):
+    def gather_arrays(self):
+        """The threaded passes' scratch of this build (made once per build)."""
         if self._gather is None:
             n, npairs = self.n, self.npairs
             offset = np.zeros(n + 1, np.int64)
@@ -184,7 +185,7 @@ class Rates:
         lst, c, sw = self.list, self.consts, self.switches  # the particles of the last build
         parts = pass_data.particle_arrays(ps)
         n, n_own = lst.n, ps.n_own
-        gather = self._gather_arrays() if numba.get_num_threads() > 1 else None
+        gather = self.gather_arrays() if numba.get_num_threads() > 1 else None
         t0 = time.perf_counter()
         if gather is not None:
             self._run("density_threaded", lst, parts, c, sw, gather)

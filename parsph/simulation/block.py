@@ -1,0 +1,229 @@
+"""The steps between events in compiled code: integrate, sync, Eq. (3), ghosts' rho, Eq. (5), again and again.
+
+:func:`run_block` advances the state by whole steps, each exactly as the
+Python path of :class:`parsph.simulation.solver.Simulation` takes it (the same
+numba stages in the same order, the messages through
+:mod:`parsph.parallel.native_mpi` instead of mpi4py), and returns to Python
+when something happens there:
+
+- ``EVENT``: the step ``stop_step`` was reached, or (auto dt) the step landed
+  on the target time: an output, a check, the end, a progress line or a
+  signal poll is due;
+- ``REBUILD`` / ``REBUILD_MID``: the all-reduce after a sync (at the end of a
+  step, or at the midpoint integrator's middle evaluation) says the
+  neighbour list must be rebuilt; the particles are synced, the step's rates
+  are not computed yet;
+- ``BAD`` / ``BAD_MID``: the last integration left a non-finite state or a
+  jump beyond h on some rank (Python runs the checks, which raise);
+- ``STOP``: a signal's stop, agreed at a sync in this block (rates computed);
+- ``NEED_LIMIT``: (auto dt) the largest theta left the bucket whose linear
+  limit Python computed; nothing of the step is done yet;
+- ``MPI_ERROR``: an MPI call failed.
+
+Every decision is taken from all-reduced values or from the step count, so
+every rank returns at the same step with the same code.
+"""
+import math
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from parsph.parallel import native_halo
+from parsph.parallel.native_mpi import OP_MAX, allreduce, wtime
+from parsph.sph import equations
+from parsph.sph.integrators import midpoint_correct, midpoint_predict, step_paper
+from parsph.sph.neighbours import block_spread
+from parsph.sph.particles import state_maxima
+
+EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR = range(8)
+CODES = ("event", "rebuild", "rebuild at the midpoint", "bad state", "bad state at the midpoint", "stop",
+         "new limit", "MPI error")
+# ctl (float64): the block's clock and its inputs from Python
+T, DT, T_TARGET, LIN_THETA, LIN_DT, STOP_IN, FORCE_IN, STOP_OUT, LAND = range(9)
+N_CTL = 9
+# ictl (int64)
+STEP, STOP_STEP, STEPS_DONE = range(3)
+N_ICTL = 3
+# timers (float64 seconds), in the solver's phase names
+TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate")
+SYNC, DENSITY, HALO, FORCES, INTEGRATE = range(5)
+
+
+class Motion(NamedTuple):
+    """The particle fields the step moves besides ParticleArrays'."""
+    disp: np.ndarray  # displacement since the last list build
+    ref: np.ndarray   # positions at the last build
+    jump: np.ndarray  # the last step's displacement length
+    pos0: np.ndarray  # midpoint integrator: r^n, v^n (else empty)
+    vel0: np.ndarray
+
+
+class Rule(NamedTuple):
+    """The numbers of the step rule: fixed dt or the auto rule (parsph.physics.limits.stable_dt)."""
+    dt: float          # the fixed step (the first step with auto dt)
+    safety: float      # numerics.dt_safety
+    h: float           # the jump limit (check 5) and the advection/force limits' length
+    theta0: float      # the floor of the largest theta (state_maxima)
+    theta_step: float  # limits.THETA_STEP: the bucket of the cached linear limit
+    skin: float
+
+
+class Modes(NamedTuple):
+    """Compile-time choices of the block (pass_data.switch values)."""
+    midpoint: tuple
+    dt_auto: tuple
+    threaded: tuple
+
+
+@njit(cache=True)
+def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers):
+    """Displacements, the ghosts' refresh, the list's validity test and one all-reduce of (bad, stop,
+    rebuild); returns MPI's error code. ``flags_all`` holds the agreed values."""
+    t0 = wtime()
+    pos, ref, disp = parts.pos, motion.ref, motion.disp
+    dim = pos.shape[1]
+    for i in range(parts.n_own):
+        for d in range(dim):
+            disp[i, d] = pos[i, d] - ref[i, d]
+    err = native_halo.forward(plan, parts.pos, parts.vel, motion.disp, parts.n_own)
+    spread = block_spread(disp, cells, local, box, work)
+    flags[0] = bad
+    flags[1] = ctl[STOP_IN]
+    flags[2] = 1.0 if (ctl[FORCE_IN] != 0.0 or not spread < skin) else 0.0
+    ctl[STOP_IN] = 0.0
+    ctl[FORCE_IN] = 0.0
+    err |= allreduce(plan.h, OP_MAX, flags, flags_all)
+    timers[SYNC] += wtime() - t0
+    return err
+
+
+@njit(cache=True)
+def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
+    t0 = wtime()
+    n, n_own = lst.n, parts.n_own
+    if len(modes.threaded):
+        equations.density_threaded(lst, parts, c, sw, gather)
+    else:
+        equations.density_serial(lst, parts, c, sw)
+    equations.particle_factors(lst, parts, c, sw, 0, n_own)
+    t1 = wtime()
+    err = native_halo.refresh(plan, parts.rho, n_own)
+    t2 = wtime()
+    equations.particle_factors(lst, parts, c, sw, n_own, n)
+    if len(modes.threaded):
+        equations.momentum_threaded(lst, parts, c, sw, gather)
+    else:
+        equations.momentum_serial(lst, parts, c, sw)
+    t3 = wtime()
+    timers[DENSITY] += t1 - t0
+    timers[HALO] += t2 - t1
+    timers[FORCES] += t3 - t2
+    return err
+
+
+@njit(cache=True)
+def bucket(theta_max, theta_step):
+    """The theta at which the auto rule takes the linear limit: theta_max rounded up to a multiple of
+    theta_step, at most 0.999 (parsph.physics.limits.limits)."""
+    return min(math.ceil(theta_max / theta_step - 1e-9) * theta_step, 0.999)
+
+
+@njit(cache=True)
+def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all):
+    """The auto rule's dt (safety x the smallest of the linear, advection and force limits), or -1 when
+    the largest theta left the bucket of ``ctl[LIN_THETA]``; -2 on an MPI error."""
+    v, th, a = state_maxima(parts.vel, parts.acc, parts.theta, parts.kind, parts.n_own, rule.theta0)
+    maxima[0] = v
+    maxima[1] = th
+    maxima[2] = a
+    if allreduce(plan.h, OP_MAX, maxima, maxima_all) != 0:
+        return -2.0
+    vmax, theta_max, amax = maxima_all[0], min(maxima_all[1], 0.999), maxima_all[2]
+    if bucket(theta_max, rule.theta_step) != ctl[LIN_THETA]:
+        return -1.0
+    advection = 0.5 * rule.h / vmax if vmax > 0 else np.inf
+    force = 0.25 * math.sqrt(rule.h / amax) if amax > 0 else np.inf
+    return rule.safety * min(ctl[LIN_DT], advection, force)
+
+
+@njit(cache=True)
+def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, modes, ctl, ictl, timers,
+              scratch):
+    """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
+
+    ``ctl``, ``ictl`` hold the clock (t, dt, step) and the inputs (target
+    time, the linear limit's bucket, stop and forced-rebuild flags, the step
+    to stop at); ``timers`` gets the phases' seconds; ``scratch`` (12
+    float64) the all-reduces' buffers.
+    """
+    flags, flags_all = scratch[0:3], scratch[3:6]
+    maxima, maxima_all = scratch[6:9], scratch[9:12]
+    pos, vel, acc, kind = parts.pos, parts.vel, parts.acc, parts.kind
+    n_own = parts.n_own
+    stopped = False
+    ictl[STEPS_DONE] = 0
+    while ictl[STEP] < ictl[STOP_STEP]:
+        # -- the step's dt
+        land = False
+        if len(modes.dt_auto):
+            dt = _auto_dt(plan, parts, rule, ctl, maxima, maxima_all)
+            if dt == -2.0:
+                return MPI_ERROR
+            if dt < 0.0:
+                return NEED_LIMIT
+            remaining = ctl[T_TARGET] - ctl[T]
+            land = remaining <= dt
+            if land:
+                dt = remaining
+            elif remaining < 2 * dt:  # two equal steps, not a sliver
+                dt = 0.5 * remaining
+        else:
+            dt = rule.dt
+        ctl[DT] = dt
+        ctl[LAND] = 1.0 if land else 0.0
+        # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
+        t0 = wtime()
+        if len(modes.midpoint):
+            bad = midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0, motion.jump, rule.h)
+            timers[INTEGRATE] += wtime() - t0
+            if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, rule.skin, timers):
+                return MPI_ERROR
+            if flags_all[0] != 0.0:
+                return BAD_MID
+            if flags_all[1] != 0.0:
+                ctl[STOP_OUT] = flags_all[1]
+                stopped = True
+            if flags_all[2] != 0.0:
+                return REBUILD_MID
+            if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+                return MPI_ERROR
+            t0 = wtime()
+            bad = midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0, motion.jump, rule.h)
+        else:
+            bad = step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h)
+        ictl[STEP] += 1
+        ictl[STEPS_DONE] += 1
+        if len(modes.dt_auto):
+            ctl[T] = ctl[T_TARGET] if land else ctl[T] + dt
+        else:
+            ctl[T] = ictl[STEP] * rule.dt
+        timers[INTEGRATE] += wtime() - t0
+        # -- sync, and the rates of the new state
+        if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, rule.skin, timers):
+            return MPI_ERROR
+        if flags_all[0] != 0.0:
+            return BAD
+        if flags_all[1] != 0.0:
+            ctl[STOP_OUT] = flags_all[1]
+            stopped = True
+        if flags_all[2] != 0.0:
+            return REBUILD
+        if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+            return MPI_ERROR
+        if stopped:
+            return STOP
+        if land:
+            return EVENT
+    return EVENT
