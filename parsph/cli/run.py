@@ -184,6 +184,8 @@ def _run(comm, args, say, signals):
     if not cfg.dt_auto and cfg.dt > min(cfg.limits.values()):
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
     say(_banner(cfg, sim, comm, state, out_dir, stem))
+    if not sim.native:
+        say(f"parsph: note: the step's messages go through mpi4py, step by step ({sim.native_why})")
     out = Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first)
     if getattr(args, "wrap_output", None) is not None:  # parsph converge times the loop through it
         out = args.wrap_output(out)

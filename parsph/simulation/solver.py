@@ -57,12 +57,17 @@ class Interrupted(RuntimeError):
 
 
 class Simulation:
-    def __init__(self, cfg, comm, state=None, native=None):
+    def __init__(self, cfg, comm, state=None, native=None, clock=time.perf_counter):
         """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run.
 
         ``native``: send the step's messages from compiled code (:mod:`parsph.parallel.native_mpi`);
-        None (default) where the bindings load, False for the mpi4py path (the same arithmetic)."""
+        None (default) where the bindings load, False for the mpi4py path (the same arithmetic).
+        ``clock``: the seconds of the phase timers Python keeps (list builds, outputs, checks, the
+        Python path's phases; e.g. time.process_time for CPU time); the compiled blocks' phases are
+        wall seconds (MPI_Wtime)."""
         self.cfg = cfg
+        self.clock = clock
+        self._fresh = False      # the rates are those of the current state
         self.comm = comm
         self._restore = False  # the first build takes the list's reference positions from a snapshot
         self.scene = cfg.scene
@@ -122,6 +127,7 @@ class Simulation:
                           float(limits.THETA_STEP), float(self.skin))
         self._lin = (-1.0, math.inf)  # (theta bucket, its linear limit) of the auto rule; none yet
         self._block_steps = 1
+        self.block_calls = 0  # returns from compiled code to Python (blocks run)
         self._block_args = None
         self._block_fn = None
         self._block_versions = {}
@@ -190,7 +196,7 @@ class Simulation:
         if not self._built:
             self._rebuild(restore=self._restore)
             self._restore = False
-        t0 = time.perf_counter()
+        t0 = self.clock()
         ps = self.ps
         n = ps.n_own
         np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])  # positions may have changed (a step, a caller)
@@ -201,7 +207,7 @@ class Simulation:
         f[1] = self._stop_local
         f[2] = 1.0 if (self.force_rebuild or not spread < self.skin) else 0.0
         self._flags_all = self.collect.max(f)
-        self.timers["sync"] += time.perf_counter() - t0
+        self.timers["sync"] += self.clock() - t0
         self._act(self._flags_all)
 
     def _act(self, flags):
@@ -225,7 +231,7 @@ class Simulation:
         from a snapshot with the positions as the writing run held them, so
         that the same list is built again and the run continues bit for bit.
         """
-        t0 = time.perf_counter()
+        t0 = self.clock()
         ps, ring = self.ps, self.ring
         ps.n = ps.n_own
         if not restore:
@@ -248,13 +254,14 @@ class Simulation:
         self._block_args = None  # the compiled block's arguments are this build's arrays
         self._built = True
         self.rebuilds += 1
-        self.timers["rebuild"] += time.perf_counter() - t0
+        self.timers["rebuild"] += self.clock() - t0
 
     # ---- one evaluation of the right-hand side -------------------------------
     def compute_rates(self):
         """Density, theta and accelerations of the owned particles at the current state."""
         self._sync()
-        self.rates(self.ps, self.ring, self.timers)
+        self.rates(self.ps, self.ring, self.timers, self.clock)
+        self._fresh = True
 
     def advance(self, dt, stop_requested=None):
         """One step of the chosen integrator; the particles stay on this rank until the next rebuild.
@@ -263,27 +270,28 @@ class Simulation:
         the next evaluation agrees on it over all ranks (``self.stop``).
         """
         ps, T, cfg = self.ps, self.timers, self.cfg
-        t0 = time.perf_counter()
+        t0 = self.clock()
         n = ps.n_own
         if cfg.integrator == "paper":
             bad = integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h)
-            T["integrate"] += time.perf_counter() - t0
+            T["integrate"] += self.clock() - t0
         else:
             bad = integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
-            T["integrate"] += time.perf_counter() - t0
+            T["integrate"] += self.clock() - t0
             self._bad = bad
             self.compute_rates()
             bad = self._correct(dt)
         self._count_step(dt, bad)
+        self._fresh = False
         self._stop_local = stop_requested() if stop_requested is not None else 0
 
     def _correct(self, dt):
         """The midpoint integrator's second half (the rates at the midpoint are computed)."""
         ps, cfg = self.ps, self.cfg
-        t0 = time.perf_counter()
+        t0 = self.clock()
         bad = integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
                                            ps.jump, cfg.h)
-        self.timers["integrate"] += time.perf_counter() - t0
+        self.timers["integrate"] += self.clock() - t0
         return bad
 
     def _count_step(self, dt, bad):
@@ -325,11 +333,11 @@ class Simulation:
 
     def check(self):
         """Collective run-time checks (:mod:`parsph.simulation.guards`); on failure every rank raises GuardError."""
-        t0 = time.perf_counter()
+        t0 = self.clock()
         try:
             run_checks(self.collect, self.ps, self.cfg, self.step, self.t)
         finally:
-            self.timers["checks"] += time.perf_counter() - t0
+            self.timers["checks"] += self.clock() - t0
 
     def particles(self):
         """The owned particles as an output writes them (read-only views; ``position`` wrapped into the
@@ -369,7 +377,17 @@ class Simulation:
         on any rank the run writes a final output with particles and raises
         Interrupted on every rank with the same number.
         """
+        return self._loop(output, progress, stop_requested, observe)
+
+    def take_steps(self, n, stop_requested=None):
+        """``n`` steps (fewer where t_end comes first) exactly as :meth:`run` takes them: compiled blocks,
+        the auto rule landing on the output times, the run-time checks; no outputs. For benchmarks and
+        studies that step a run themselves."""
+        return self._loop(None, None, stop_requested, None, last_step=self.step + n)
+
+    def _loop(self, output, progress, stop_requested, observe, last_step=None):
         cfg = self.cfg
+        clock = self.clock
         pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
         if self.step > 0:  # restart: the restart state itself was output already
             pending = [t for t in pending if not self._output_due(t)]
@@ -379,27 +397,32 @@ class Simulation:
         step0, tsim0 = self.step, self.t
         stop = 0
         snapshots = cfg.get("output.snapshots")
-        self.compute_rates()
+        if not self._fresh:
+            self.compute_rates()
         while True:
             stop = self.stop
-            while pending and self._output_due(pending[0]) and output is not None:
-                t0 = time.perf_counter()
-                output(self.frame(snapshots), snapshot=snapshots)
+            while pending and self._output_due(pending[0]):
+                if output is not None:
+                    t0 = clock()
+                    output(self.frame(snapshots), snapshot=snapshots)
+                    self.timers["output"] += clock() - t0
                 pending.pop(0)
-                self.timers["output"] += time.perf_counter() - t0
             done = self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
             if observe is not None:
                 observe(self)
             if self.step % check_every == 0 or done:
                 self.check()
-            if done:
+            if done or (last_step is not None and self.step >= last_step):
                 break
             if stop:
                 if output is not None:
                     output(self.frame(True), snapshot=True)
                 raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; "
                                   f"the last output is a restart point", stop)
-            self._advance(pending, check_every, 1 if observe is not None else None, stop_requested)
+            most = 1 if observe is not None else None
+            if last_step is not None:
+                most = min(most or last_step, last_step - self.step)
+            self._advance(pending, check_every, most, stop_requested)
             now = time.perf_counter()
             if progress is not None and interval > 0 and now - last >= interval:
                 last = now
@@ -459,6 +482,7 @@ class Simulation:
             ctl[block.LIN_THETA], ctl[block.LIN_DT] = self._lin
             ictl[block.STEP], ictl[block.STOP_STEP] = self.step, stop_step
             code = self._block()(*self._block_args)
+            self.block_calls += 1
             self.t, self.dt, self.step = float(ctl[block.T]), float(ctl[block.DT]), int(ictl[block.STEP])
             self._bad = self._stop_local = 0
             self.force_rebuild = False
@@ -472,6 +496,7 @@ class Simulation:
                 raise RuntimeError("an MPI call of the compiled step failed")
             if code in (block.REBUILD, block.BAD, block.REBUILD_MID, block.BAD_MID):
                 self._finish_step(code)
+            self._fresh = True
             break
         took = time.perf_counter() - t0
         if self.step > steps0 and took > 0:  # the next block's length: about BLOCK_SECONDS of steps
@@ -482,7 +507,7 @@ class Simulation:
         """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates;
         at the midpoint, the second half and the step's last sync too."""
         self._act(self._scratch[3:6].copy())
-        self.rates(self.ps, self.ring, self.timers)
+        self.rates(self.ps, self.ring, self.timers, self.clock)
         if code in (block.REBUILD_MID, block.BAD_MID):
             self._count_step(self.dt, self._correct(self.dt))
             if self._ctl[block.LAND]:
