@@ -3,12 +3,18 @@
     [mpirun -n P] .venv/bin/python scripts/bench.py --nx 50 200 [--steps N] [--json FILE] [--tag TEXT]
 
 For each N_x the Couette case (L_y = L, h = 1.25 dx, dt = "auto", recomputed every
-step from the state as ``parsph run`` does) is built;
-one step is taken to compile (numba caches on disk; the first-ever compile is
-reported as ``jit_s``), 200 more pass the impulsive start (whose first steps
-rebuild the neighbour list often), then ``--steps`` steps are timed. Phase times are the
-slowest rank's seconds per step (``phases_min_s``: the fastest rank's). A second pass times every numba call: the
-rest of the step ("outside numba") is Python orchestration and MPI. Memory: peak resident set size summed over
+step from the state as ``parsph run`` does) is built and stepped through
+``Simulation.take_steps``, the loop ``parsph run`` runs (compiled blocks, the
+auto rule, the run-time checks; no outputs): one step to compile (numba
+caches on disk; the first-ever compile is reported as ``jit_s``), 200 more
+past the impulsive start (whose first steps rebuild the neighbour list often),
+then ``--steps`` steps timed. Phase times are the slowest rank's seconds per
+step (``phases_min_s``: the fastest rank's): the compiled blocks' phases
+(sync, density, halo, forces, integrate) in wall seconds, the Python ones
+(rebuild, checks) too; ``outside_phases_share`` is the rest of the wall time
+(Python between blocks). ``returns_per_step``: returns from compiled code to
+Python per step. The scalar reference loops (below) time the two pair passes'
+arithmetic on the same pair list. Memory: peak resident set size summed over
 ranks, per particle. One JSON record per size goes to --json (appended).
 """
 import argparse
@@ -25,12 +31,7 @@ from mpi4py import MPI
 import numba
 from numba import njit
 
-from numba.core.registry import CPUDispatcher
-
 from parsph.setup import config
-from parsph.parallel import slab_ring
-from parsph.sph import equations, integrators, neighbours, particles, profiles, rates
-from parsph.simulation import solver
 from parsph.simulation.solver import PHASES, Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -42,44 +43,6 @@ def make_config(nx, extra=()):
     config.apply_overrides(raw, [f"numerics.Nx={nx}", "numerics.h_over_dx=1.25", 'numerics.dt="auto"',
                                  "output.times=[]", "output.t_end=1.0", *extra])
     return config.build(raw, config.dumps(raw))
-
-
-class NumbaClock:
-    """Wraps every numba function the solver calls to add up the time spent inside them.
-
-    A module's names are wrapped where the solver calls them from (decomposition holds the halo loops of
-    halo_rows under their imported names). The passes of Eq. (3) and (5) and the validity test are called
-    through the versions ``Rates`` looks up per list build: they are wrapped through its ``wrap`` hook."""
-
-    def __init__(self):
-        self.seconds = 0.0
-        self.calls = 0
-        self._saved = []
-
-    def install(self, rates):
-        self._rates = rates
-        rates.wrap = self._wrap
-        rates._passes = {name: self._wrap(fn) for name, fn in rates._passes.items()}
-        for mod in (equations, integrators, neighbours, particles, slab_ring, profiles, rates, solver):
-            for name, obj in list(vars(mod).items()):
-                if isinstance(obj, CPUDispatcher):
-                    self._saved.append((mod, name, obj))
-                    setattr(mod, name, self._wrap(obj))
-
-    def _wrap(self, fn):
-        def timed(*args):
-            t0 = time.perf_counter()
-            out = fn(*args)
-            self.seconds += time.perf_counter() - t0
-            self.calls += 1
-            return out
-        return timed
-
-    def remove(self):
-        for mod, name, obj in self._saved:
-            setattr(mod, name, obj)
-        self._rates.wrap = None
-        self._rates._passes = {}
 
 
 @njit(cache=True)
@@ -232,71 +195,50 @@ def current_rss():
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
 
 
-def step_dt(sim):
-    """The run's time step: recomputed from the state for dt = "auto" (as parsph run does), else fixed."""
-    cfg = sim.cfg
-    return cfg.get("numerics.dt_safety") * sim.stable_dt() if cfg.dt_auto else cfg.dt
-
-
 def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     cfg = make_config(nx, extra)
     rss0 = comm.allreduce(current_rss(), op=MPI.SUM)
     comm.Barrier()
     t0 = time.perf_counter()
     sim = Simulation(cfg, comm)
-    sim.compute_rates()
-    sim.advance(step_dt(sim))
+    sim.take_steps(1)
     jit = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-    for _ in range(warmup):  # past the impulsive start, whose first steps rebuild the list often
-        sim.compute_rates()
-        sim.advance(step_dt(sim))
+    sim.take_steps(warmup)  # past the impulsive start, whose first steps rebuild the list often
     if steps is None:
-        t1 = time.perf_counter()
-        for _ in range(3):
-            sim.compute_rates()
-            sim.advance(step_dt(sim))
-        per = comm.allreduce((time.perf_counter() - t1) / 3, op=MPI.MAX)
+        t1, s1 = time.perf_counter(), sim.step
+        sim.take_steps(20)
+        per = comm.allreduce((time.perf_counter() - t1) / max(sim.step - s1, 1), op=MPI.MAX)
         steps = max(10, int(budget / per))
     sim.timers.clear()
-    rebuilds0 = sim.rebuilds
+    rebuilds0, calls0, step0 = sim.rebuilds, sim.block_calls, sim.step
     comm.Barrier()
     c0, t0 = time.process_time(), time.perf_counter()
-    for _ in range(steps):
-        sim.compute_rates()
-        sim.advance(step_dt(sim))
+    sim.take_steps(steps)
     cpu = comm.allreduce(time.process_time() - c0, op=MPI.SUM)  # all ranks' CPU seconds in the timed steps
     comm.Barrier()
     wall = time.perf_counter() - t0
+    steps = sim.step - step0
     rebuilds = sim.rebuilds - rebuilds0
     phases = {k: comm.allreduce(sim.timers.get(k, 0.0), op=MPI.MAX) / steps for k in PHASES}
     # the rank that reaches an exchange last waits least: its time is the message cost without the imbalance
     phases_min = {k: comm.allreduce(sim.timers.get(k, 0.0), op=MPI.MIN) / steps for k in PHASES}
-    # a second, shorter pass with every numba call timed: the rest is Python and MPI
-    clock = NumbaClock()
-    clock.install(sim.rates)
-    n2 = max(10, steps // 4)
-    t1 = time.perf_counter()
-    for _ in range(n2):
-        sim.compute_rates()
-        sim.advance(step_dt(sim))
-    wall2 = time.perf_counter() - t1
-    clock.remove()
-    outside = comm.allreduce((wall2 - clock.seconds) / wall2, op=MPI.MAX)
-    dispatches = clock.calls / n2
+    inside = sum(sim.timers.get(k, 0.0) for k in PHASES)
+    outside = comm.allreduce(max(wall - inside, 0.0) / wall, op=MPI.MAX)
     pairs = comm.allreduce(sim.rates.npairs, op=MPI.SUM)
     rss = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, op=MPI.SUM)
     ref = reference(sim)
     step = wall / steps
     return {
-        "nx": nx, "ranks": comm.size, "particles": sim.n_total, "steps": steps, "dt": cfg.dt,
+        "nx": nx, "ranks": comm.size, "particles": sim.n_total, "steps": steps, "dt": sim.dt,
         "step_s": step, "particle_steps_per_s": sim.n_total * steps / wall,
         "cpu_s_per_step": cpu / steps, "pairs_per_step": pairs,
         "ns_per_pair_density": phases["density"] * comm.size / pairs * 1e9,
         "ns_per_pair_forces": phases["forces"] * comm.size / pairs * 1e9,
         "ns_per_pair_reference_density": ref["density"], "ns_per_pair_reference_forces": ref["forces"],
         "ns_per_pair_reference_forces_rows": ref["forces_rows"],
-        "steps_per_rebuild": steps / max(rebuilds, 1), "numba_calls_per_step": dispatches,
-        "jit_s": jit, "phases_s": phases, "phases_min_s": phases_min, "outside_numba_share": outside,
+        "steps_per_rebuild": steps / max(rebuilds, 1), "returns_per_step": (sim.block_calls - calls0) / steps,
+        "native_mpi": sim.native, "jit_s": jit, "phases_s": phases, "phases_min_s": phases_min,
+        "outside_phases_share": outside,
         "rss_bytes_per_particle": rss / sim.n_total,
         "rss_before_bytes": rss0, "rss_added_bytes_per_particle": (rss - rss0) / sim.n_total,
         "threads": numba.get_num_threads(), "threading_layer": threading_layer(),
@@ -317,10 +259,7 @@ def main():
     a = ap.parse_args()
     numba.set_num_threads(a.threads)
     comm = MPI.COMM_WORLD
-    warm = Simulation(make_config(10), comm)  # load the compiled loops before any RSS is taken
-    warm.compute_rates()
-    warm.advance(warm.cfg.dt)
-    del warm
+    Simulation(make_config(10), comm).take_steps(2)  # load the compiled loops before any RSS is taken
     for nx in a.nx:
         r = bench(comm, nx, a.steps or None, a.set, a.budget)
         r["tag"] = a.tag
@@ -329,13 +268,14 @@ def main():
             print(f"Nx={nx:4d} P={r['ranks']} N={r['particles']:7d} {r['step_s'] * 1e3:9.3f} ms/step "
                   f"(CPU {r['cpu_s_per_step'] * 1e3 / r['ranks']:.3f} ms per rank: "
                   f"{r['particles'] / r['cpu_s_per_step']:.3g} particle-steps per CPU-second) "
-                  f"T={r['threads']} {r['particle_steps_per_s']:.3g} particle-steps/s  outside numba {100 * r['outside_numba_share']:.1f}%  "
+                  f"T={r['threads']} {r['particle_steps_per_s']:.3g} particle-steps/s  outside the phases {100 * r['outside_phases_share']:.1f}%  "
                   f"{r['ns_per_pair_density']:.1f}/{r['ns_per_pair_forces']:.1f} ns/pair (density/forces)  "
                   f"RSS {r['rss_bytes_per_particle']:.0f} B/particle "
                   f"({r['rss_added_bytes_per_particle']:.0f} B above the {r['rss_before_bytes'] / 2**20:.0f} MiB before)  jit+setup {r['jit_s']:.1f} s {a.tag}",
                   flush=True)
             print(f"    ms/step: {ph}; {r['steps_per_rebuild']:.1f} steps per list rebuild, "
-                  f"{r['numba_calls_per_step']:.1f} numba calls per step", flush=True)
+                  f"{r['returns_per_step']:.3f} returns to Python per step (native MPI: {r['native_mpi']})",
+                  flush=True)
             print(f"    reference loops (CPU time): {r['ns_per_pair_reference_density']:.1f}/"
                   f"{r['ns_per_pair_reference_forces']:.1f} ns/pair (density/forces; forces reading one packed "
                   f"row per particle: {r['ns_per_pair_reference_forces_rows']:.1f})", flush=True)

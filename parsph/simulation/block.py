@@ -32,7 +32,7 @@ from numba import njit
 from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, allreduce, wtime
 from parsph.sph import equations
-from parsph.sph.integrators import midpoint_correct, midpoint_predict, step_paper
+from parsph.sph import integrators
 from parsph.sph.neighbours import block_spread
 from parsph.sph.particles import state_maxima
 
@@ -186,7 +186,12 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
         t0 = wtime()
         if len(modes.midpoint):
-            bad = midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0, motion.jump, rule.h)
+            if len(modes.threaded):
+                bad = integrators.midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                                                   motion.jump, rule.h)
+            else:
+                bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                                                          motion.jump, rule.h)
             timers[INTEGRATE] += wtime() - t0
             if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, rule.skin, timers):
                 return MPI_ERROR
@@ -200,9 +205,16 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
                 return MPI_ERROR
             t0 = wtime()
-            bad = midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0, motion.jump, rule.h)
+            if len(modes.threaded):
+                bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                                                   motion.jump, rule.h)
+            else:
+                bad = integrators.midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                                                          motion.jump, rule.h)
+        elif len(modes.threaded):
+            bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h)
         else:
-            bad = step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h)
+            bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h)
         ictl[STEP] += 1
         ictl[STEPS_DONE] += 1
         if len(modes.dt_auto):
