@@ -17,14 +17,16 @@ The worker takes ``--warmup`` steps, then ``--blocks`` blocks of
 ``--block`` steps, and records per rank:
 - wall time per step (the mean, and the fastest block: on a shared machine
   the least disturbed one) and CPU time (``time.process_time``; MPI waits
-  spin and count as CPU), the solver's phases in CPU time;
-- through a wrapper around the communicator: every send and all-reduce with
-  its bytes, by SlabRing method (``forward``, ``refresh``: every step;
-  ``migrate``, ``exchange_ghosts``: every list build; ``step``: the step's
-  all-reduce), and the CPU and wall time spent inside blocking calls
-  (Waitall, Probe, Recv, Allreduce), so that CPU outside waits is known;
+  spin and count as CPU); the solver's phases (``Simulation(clock=
+  time.process_time)``: the Python ones in CPU seconds, the compiled
+  blocks' in wall seconds, their waits included);
+- every send and all-reduce with its bytes: the step's (``forward``,
+  ``refresh``, ``step``) from the sizes of the ghost rounds, the list
+  builds' (``migrate``, ``exchange_ghosts``) and the CPU seconds waiting in
+  them from ``SlabRing.stats``;
 - owned, ghost and image particles, list pairs, list builds;
-- one ghost round and one 3-float all-reduce alone (the fastest of ``--reps``).
+- one ghost round and one 3-float all-reduce alone (the fastest of ``--reps``),
+  through the route the step takes (compiled code where native MPI loads).
 Writes OUTDIR/scaling_<mode>.json (one record per P and size, every rank's
 figures), and for strong and weak a .csv (one row per P, the busiest rank)
 and a .png, the machine named.
@@ -33,13 +35,11 @@ import argparse
 import csv
 import json
 import os
-import pickle
 import platform
 import subprocess
 import sys
 import tempfile
 import time
-from collections import defaultdict
 from types import SimpleNamespace
 
 from machine import cpu_model  # noqa: E402  (scripts/machine.py)
@@ -53,164 +53,105 @@ def machine():
 
 
 # ---- the worker (one per rank, under mpirun) ----------------------------------------------------
-class CountingComm:
-    """A communicator that counts the sends and all-reduces made through it, with their bytes, by phase."""
-
-    def __init__(self, comm):
-        self._c = comm
-        self.rank, self.size = comm.rank, comm.size
-        self.phase = "step"
-        self.log = defaultdict(lambda: [0, 0])   # (phase, op) -> [calls, bytes]
-        self.blocked = [0.0, 0.0]                # CPU and wall seconds inside blocking calls (waits)
-        self.blocked_cpu = defaultdict(float)    # the CPU seconds of those by phase
-        self.ring_cpu = defaultdict(float)       # CPU seconds in each SlabRing method (waits included)
-
-    def __getattr__(self, name):                   # everything else passes through uncounted
-        return getattr(self._c, name)
-
-    def _add(self, op, nbytes):
-        e = self.log[(self.phase, op)]
-        e[0] += 1
-        e[1] += int(nbytes)
-
-    @staticmethod
-    def _bytes(buf):
-        import numpy as np
-        return np.asarray(buf[0] if isinstance(buf, (list, tuple)) else buf).nbytes
-
-    def _block(self, fn, *args, **kwargs):
-        c0, w0 = time.process_time(), time.perf_counter()
-        try:
-            return fn(*args, **kwargs)
-        finally:
-            self.blocked[0] += time.process_time() - c0
-            self.blocked[1] += time.perf_counter() - w0
-            self.blocked_cpu[self.phase] += time.process_time() - c0
-
-    def Probe(self, *args, **kwargs):
-        return self._block(self._c.Probe, *args, **kwargs)
-
-    def Recv(self, *args, **kwargs):
-        return self._block(self._c.Recv, *args, **kwargs)
-
-    def Isend(self, buf, dest, tag=0):
-        self._add("send", self._bytes(buf))
-        return self._c.Isend(buf, dest=dest, tag=tag)
-
-    def Allreduce(self, sendbuf, recvbuf, op=None):
-        from mpi4py import MPI
-        self._add("allreduce", self._bytes(sendbuf))
-        return self._block(self._c.Allreduce, sendbuf, recvbuf, op=op or MPI.SUM)
-
-    def allreduce(self, obj, op=None):
-        from mpi4py import MPI
-        self._add("allreduce", len(pickle.dumps(obj)))
-        return self._c.allreduce(obj, op=op or MPI.SUM)
+def _lone_rounds(sim, reps):
+    """Seconds of one ghost round, one rho round and one 3-float all-reduce alone (the fastest of reps),
+    through the route the step uses (compiled code where native MPI loads, else mpi4py)."""
+    import numpy as np
+    from mpi4py import MPI
+    from parsph.parallel import native_halo, native_mpi
+    ring, ps, comm = sim.ring, sim.ps, sim.comm
+    buf, out = np.zeros(3), np.zeros(3)
+    best = {"forward": np.inf, "refresh": np.inf, "allreduce": np.inf}
+    plan = ring.plan(ps.dim) if sim.native else None
+    if plan is not None:
+        args = (plan, ps.pos, ps.vel, ps.disp, ps.n_own)
+        native_halo.forward(*args), native_halo.refresh(plan, ps.rho, ps.n_own)  # compile or load first
+    h = native_mpi.handles(comm) if plan is not None else None
+    for _ in range(reps):
+        comm.Barrier()
+        t0 = time.perf_counter()
+        native_halo.forward(*args) if plan is not None else ring.forward(ps)
+        t1 = time.perf_counter()
+        native_halo.refresh(plan, ps.rho, ps.n_own) if plan is not None else ring.refresh(ps, ps.rho)
+        t2 = time.perf_counter()
+        native_mpi.allreduce(h, native_mpi.OP_MAX, buf, out) if plan is not None else \
+            comm.Allreduce(buf, out, op=MPI.MAX)
+        t3 = time.perf_counter()
+        for k, v in (("forward", t1 - t0), ("refresh", t2 - t1), ("allreduce", t3 - t2)):
+            best[k] = min(best[k], v)
+    return best
 
 
-class MPIWaits:
-    """Stands in for the mpi4py.MPI module inside parsph.parallel.slab_ring: Request.Waitall counts as blocked."""
-
-    def __init__(self, mpi):
-        self._mpi = mpi
-        self.comm = None   # the CountingComm of the run in progress
-        self.Request = SimpleNamespace(Waitall=lambda reqs: self.comm._block(mpi.Request.Waitall, reqs))
-
-    def __getattr__(self, name):
-        return getattr(self._mpi, name)
-
-
-def _in_phase(comm, name, fn):
-    """``fn`` with its messages counted under ``name`` and its CPU seconds added to comm.ring_cpu[name]."""
-    def wrapped(*args, **kwargs):
-        comm.phase = name
-        c0 = time.process_time()
-        try:
-            return fn(*args, **kwargs)
-        finally:
-            comm.ring_cpu[name] += time.process_time() - c0
-            comm.phase = "step"
-    return wrapped
+def _step_messages(sim, steps):
+    """The step's messages (calls, bytes) by phase over ``steps`` steps, from the plan's sizes: each step
+    sends one ghost round (pos, vel, disp) and one rho round to the two neighbours and all-reduces the
+    three flags (the midpoint integrator: twice; auto dt: the maxima too)."""
+    ring, d = sim.ring, sim.ps.dim
+    ghosts_sent = len(ring.send_up) + len(ring.send_down)
+    evals = 2 if sim.cfg.integrator == "midpoint" else 1
+    out = {"forward.send": {"calls": 2 * evals * steps, "bytes": 8 * 3 * d * ghosts_sent * evals * steps},
+           "refresh.send": {"calls": 2 * evals * steps, "bytes": 8 * ghosts_sent * evals * steps},
+           "step.allreduce": {"calls": (evals + int(sim.cfg.dt_auto)) * steps,
+                              "bytes": 24 * (evals + int(sim.cfg.dt_auto)) * steps}}
+    st = ring.stats
+    for method, (calls, nbytes) in st["sends"].items():
+        if method in ("migrate", "exchange_ghosts"):
+            out[f"{method}.send"] = {"calls": calls, "bytes": nbytes}
+    for method, calls in st["allreduces"].items():
+        out[f"{method}.allreduce"] = {"calls": calls, "bytes": 8 * calls}
+    return out
 
 
 def worker(a):
     """Runs every size of ``--nx`` in one process, their timed blocks in turn (the machine's speed drifts)."""
-    import numpy as np
     import numba
     from mpi4py import MPI
     sys.path.insert(0, os.path.join(ROOT, "scripts"))
     import bench
-    from parsph.parallel import slab_ring
-    from parsph.sph import rates
-    from parsph.simulation import solver
+    from parsph.simulation.solver import Simulation
 
     numba.set_num_threads(a.threads)
     world = MPI.COMM_WORLD
-    # the solver's phase timers in CPU seconds (process_time) instead of wall seconds
-    solver.time = rates.time = SimpleNamespace(perf_counter=time.process_time)
-    waits = slab_ring.MPI = MPIWaits(MPI)
     runs = []
     for nx in a.nx:
-        comm = CountingComm(world)
-        waits.comm = comm
-        sim = solver.Simulation(bench.make_config(nx, a.set), comm)
-        for name in ("forward", "refresh", "migrate", "exchange_ghosts"):
-            setattr(sim.ring, name, _in_phase(comm, name, getattr(sim.ring, name)))
-        for _ in range(1 + a.warmup):
-            sim.compute_rates()
-            sim.advance(sim.cfg.dt)
-        comm.log.clear()
-        comm.blocked = [0.0, 0.0]
-        comm.blocked_cpu.clear()
-        comm.ring_cpu.clear()
+        # the solver's Python phase timers and the ring's message statistics in CPU seconds
+        sim = Simulation(bench.make_config(nx, a.set), world, clock=time.process_time)
+        sim.take_steps(1 + a.warmup)
         sim.timers.clear()
-        runs.append(SimpleNamespace(nx=nx, sim=sim, comm=comm, r0=sim.rebuilds, walls=[], cpus=[], rebuilds=[]))
+        for part in sim.ring.stats.values():
+            part.clear()
+        runs.append(SimpleNamespace(nx=nx, sim=sim, r0=sim.rebuilds, s0=sim.step, walls=[], cpus=[], rebuilds=[]))
     for _ in range(a.blocks):
         for run in runs:
-            sim, dt = run.sim, run.sim.cfg.dt
-            waits.comm = run.comm
+            sim = run.sim
             world.Barrier()
             b0, w0, c0 = sim.rebuilds, time.perf_counter(), time.process_time()
-            for _ in range(a.block):
-                sim.compute_rates()
-                sim.advance(dt)
+            sim.take_steps(a.block)
             run.cpus.append(time.process_time() - c0)
             world.Barrier()
             run.walls.append(time.perf_counter() - w0)
             run.rebuilds.append(sim.rebuilds - b0)
-    steps = a.blocks * a.block
     lines = []
     for run in runs:
-        sim, comm, ring, ps = run.sim, run.comm, run.sim.ring, run.sim.ps
-        waits.comm = comm
+        sim, ring, ps = run.sim, run.sim.ring, run.sim.ps
+        steps = sim.step - run.s0
+        st = ring.stats
+        waits = sum(st["waiting"].values())
         mine = {
             "rank": world.rank, "own": ps.n_own, "ghosts_below": ring.n_below, "ghosts_above": ring.n_above,
             "images": ring.n_images, "local": ps.n, "pairs": sim.rates.npairs,
             "cpu_s_per_step": sum(run.cpus) / steps, "wall_block_s": run.walls, "rebuilds_per_block": run.rebuilds,
-            "blocked_cpu_s_per_step": comm.blocked[0] / steps, "blocked_wall_s_per_step": comm.blocked[1] / steps,
-            "blocked_cpu_by_phase_s": {k: v / steps for k, v in comm.blocked_cpu.items()},
-            "ring_cpu_s": {k: v / steps for k, v in comm.ring_cpu.items()},
+            # waits in the Python-side messages (list builds; every step on the mpi4py path); the compiled
+            # step's waits are inside its sync and halo phases
+            "blocked_cpu_s_per_step": waits / steps, "blocked_wall_s_per_step": waits / steps,
+            "blocked_cpu_by_phase_s": {k: v / steps for k, v in st["waiting"].items()},
+            "ring_cpu_s": {k: v / steps for k, v in st["seconds"].items()},
             "phases_cpu_s": {k: v / steps for k, v in sim.timers.items()},
-            "messages": {f"{ph}.{op}": {"calls": c, "bytes": b} for (ph, op), (c, b) in sorted(comm.log.items())},
+            "messages": _step_messages(sim, steps),
+            "native_mpi": sim.native, "returns_per_step": sim.block_calls / max(sim.step, 1),
         }
-        # one ghost round and one all-reduce alone: the fastest of reps (message cost without imbalance)
-        buf, out = np.zeros(3), np.zeros(3)
-        best = {"forward": np.inf, "refresh": np.inf, "allreduce": np.inf, "blocked": np.inf}
-        for _ in range(a.reps):
-            world.Barrier()
-            b0 = comm.blocked[1]
-            t0 = time.perf_counter()
-            ring.forward(ps)
-            t1 = time.perf_counter()
-            ring.refresh(ps, ps.rho)
-            t2 = time.perf_counter()
-            comm.Allreduce(buf, out, op=MPI.MAX)
-            t3 = time.perf_counter()
-            for k, v in (("forward", t1 - t0), ("refresh", t2 - t1), ("allreduce", t3 - t2),
-                         ("blocked", comm.blocked[1] - b0)):
-                best[k] = min(best[k], v)
-        mine["alone_s"] = {k: best[k] for k in ("forward", "refresh", "allreduce")}
-        mine["alone_blocked_s"] = best["blocked"]
+        mine["alone_s"] = _lone_rounds(sim, a.reps)
+        mine["alone_blocked_s"] = sum(mine["alone_s"].values())
         ranks = world.gather(mine, root=0)
         if world.rank == 0:
             nreb = sim.rebuilds - run.r0

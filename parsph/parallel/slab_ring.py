@@ -24,6 +24,9 @@ arithmetic (edges, rows, whether a rank count fits) is :mod:`parsph.parallel.sla
 This module knows nothing of the equations, only of particle arrays and the
 cell grid.
 """
+import time
+from collections import defaultdict
+
 import numpy as np
 from mpi4py import MPI
 
@@ -39,8 +42,14 @@ TAG_MOVE_UP, TAG_MOVE_DOWN = 13, 14
 class SlabRing:
     """The slab of this rank, its two neighbours, its ghosts and images, and the exchange buffers."""
 
-    def __init__(self, comm, Ly, grid):
+    def __init__(self, comm, Ly, grid, clock=time.perf_counter):
+        """``clock``: the seconds of :attr:`stats` (e.g. time.process_time for CPU time)."""
         self.comm = comm
+        self.clock = clock
+        # what the Python-side messages cost, by method: seconds in the method, seconds waiting in MPI,
+        # (sends, bytes) and all-reduces; the compiled step's messages are counted by their plan's sizes
+        self.stats = {"seconds": defaultdict(float), "waiting": defaultdict(float),
+                      "sends": defaultdict(lambda: [0, 0]), "allreduces": defaultdict(int)}
         self.rank, self.size = comm.rank, comm.size
         self.Ly = Ly
         self.grid = grid
@@ -86,7 +95,7 @@ class SlabRing:
             self._bufs[key] = buf
         return buf
 
-    def _send_receive(self, up, down, tags):
+    def _send_receive(self, up, down, tags, method):
         """Send rows ``up`` to the right neighbour and ``down`` to the left; receive rows of unknown number.
 
         The counts travel as message sizes (MPI_Probe, then a receive of that
@@ -97,7 +106,9 @@ class SlabRing:
         tag_up, tag_down = tags
         sends = [c.Isend([up, MPI.DOUBLE], dest=self.right, tag=tag_up),
                  c.Isend([down, MPI.DOUBLE], dest=self.left, tag=tag_down)]
+        self._count(method, up, down)
         got = []
+        t0 = self.clock()
         for source, tag in ((self.left, tag_up), (self.right, tag_down)):
             c.Probe(source=source, tag=tag, status=self._status)
             rows = self._status.Get_count(MPI.DOUBLE) // max(width, 1)
@@ -105,19 +116,30 @@ class SlabRing:
             c.Recv([buf, MPI.DOUBLE], source=source, tag=tag)
             got.append(buf.copy())
         MPI.Request.Waitall(sends)
+        self.stats["waiting"][method] += self.clock() - t0
         return got[0], got[1]
+
+    def _count(self, method, *bufs):
+        e = self.stats["sends"][method]
+        e[0] += len(bufs)
+        e[1] += sum(b.nbytes for b in bufs)
 
     def _exchange(self, key, n_up, n_down, width, up_rows=None):
         """Known sizes: send the first n_up/n_down rows of the send buffers, receive n_below/n_above rows."""
         c = self.comm
         below = self._buf(("recv below", key), self.n_below, width)[:self.n_below]
         above = self._buf(("recv above", key), self.n_above, width)[:self.n_above]
+        up = self._buf(("send up", key), n_up, width)[:n_up]
+        down = self._buf(("send down", key), n_down, width)[:n_down]
         reqs = [c.Irecv([below, MPI.DOUBLE], source=self.left, tag=TAG_UP),
                 c.Irecv([above, MPI.DOUBLE], source=self.right, tag=TAG_DOWN),
-                c.Isend([self._buf(("send up", key), n_up, width)[:n_up], MPI.DOUBLE], dest=self.right, tag=TAG_UP),
-                c.Isend([self._buf(("send down", key), n_down, width)[:n_down], MPI.DOUBLE], dest=self.left,
-                        tag=TAG_DOWN)]
+                c.Isend([up, MPI.DOUBLE], dest=self.right, tag=TAG_UP),
+                c.Isend([down, MPI.DOUBLE], dest=self.left, tag=TAG_DOWN)]
+        method = {"fwd": "forward", "scalar": "refresh"}[key]
+        self._count(method, up, down)
+        t0 = self.clock()
         MPI.Request.Waitall(reqs)
+        self.stats["waiting"][method] += self.clock() - t0
         return below, above
 
     # -- every step -------------------------------------------------------------------
@@ -193,19 +215,30 @@ class SlabRing:
         P = self.size
         if P == 1:
             return
+        t_in = self.clock()
+        try:
+            self._migrate(ps, key)
+        finally:
+            self.stats["seconds"]["migrate"] += self.clock() - t_in
+
+    def _migrate(self, ps, key):
+        P = self.size
         while True:
             n = ps.n_own
             owner = self.owner(getattr(ps, key)[:n, 1])
             away = owner != self.rank
             self._flag[0] = int(away.any())
+            t0 = self.clock()
             self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
+            self.stats["waiting"]["migrate"] += self.clock() - t0
+            self.stats["allreduces"]["migrate"] += 1
             if not self._flag_all[0]:
                 return
             ahead = (owner - self.rank) % P
             up = away & (ahead <= P // 2)
             down = away & ~up
             from_left, from_right = self._send_receive(ps.rows(np.flatnonzero(up)), ps.rows(np.flatnonzero(down)),
-                                                       (TAG_MOVE_UP, TAG_MOVE_DOWN))
+                                                       (TAG_MOVE_UP, TAG_MOVE_DOWN), "migrate")
             ps.remove_owned(away)
             n0 = ps.n_own
             k = len(from_left) + len(from_right)
@@ -221,6 +254,7 @@ class SlabRing:
         particles; the ghosts' are appended (their row shifted by -+ny across
         y = Ly). ``ghost_fields`` are the particle fields a ghost carries.
         """
+        t_in = self.clock()
         P, r, m, ny = self.size, self.rank, self.m, self.ny
         first, last = self._rows_of
         n = ps.n_own
@@ -236,7 +270,8 @@ class SlabRing:
                     .astype(float) for f in ghost_fields]
             return np.concatenate(cols + [coords[idx].astype(float)], axis=1)
 
-        below, above = self._send_receive(rows(self.send_up), rows(self.send_down), (TAG_UP, TAG_DOWN))
+        below, above = self._send_receive(rows(self.send_up), rows(self.send_down), (TAG_UP, TAG_DOWN),
+                                          "exchange_ghosts")
         self.n_below, self.n_above = len(below), len(above)
         k = self.n_below + self.n_above
         ps.n = n
@@ -260,6 +295,7 @@ class SlabRing:
         if r == P - 1:
             coords[n + self.n_below:n + k, 1] += ny
         ps.n = n + k
+        self.stats["seconds"]["exchange_ghosts"] += self.clock() - t_in
         return coords
 
     def add_images(self, ps, coords, image_fields):

@@ -76,7 +76,7 @@ class Simulation:
         self.grid = grid_for(cfg, self.kernel)
         walls = self.scene.walls
         self._grid_params = self.grid.params()
-        self.ring = SlabRing(comm, cfg.Ly, self.grid)
+        self.ring = SlabRing(comm, cfg.Ly, self.grid, clock)
         self.ps = self._particles(state)
         ps = self.ps
         ps.add_field("ref")  # positions at the last build of the neighbour list
