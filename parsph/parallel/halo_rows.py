@@ -3,7 +3,11 @@ unpack the received rows as ghosts, then refresh the periodic images from their 
 
 A forward row is (position, velocity, displacement); a scalar row one
 number (rho). Used by :class:`parsph.parallel.slab_ring.SlabRing` between rebuilds.
+At a rebuild a ghost row is a whole ghost: (gid, kind, mass, position,
+velocity, rho, reference position, cell coordinates), 7 + 3d float64 (ids
+and cells are exact below 2^53).
 """
+import numpy as np
 from numba import njit
 
 
@@ -65,3 +69,66 @@ def unpack_scalar(below, above, start, arr, img_src, img_start):
         i += 1
     for q in range(img_src.shape[0]):
         arr[img_start + q] = arr[img_src[q]]
+
+
+@njit(cache=True)
+def pack_ghosts(idx, gid, kind, mass, pos, vel, rho, ref, coords, out):
+    """Ghost rows of the owned particles ``idx`` into ``out`` ((len(idx), 7 + 3d))."""
+    d = pos.shape[1]
+    for r in range(idx.shape[0]):
+        i = idx[r]
+        out[r, 0] = gid[i]
+        out[r, 1] = kind[i]
+        out[r, 2] = mass[i]
+        for c in range(d):
+            out[r, 3 + c] = pos[i, c]
+            out[r, 3 + d + c] = vel[i, c]
+            out[r, 4 + 2 * d + c] = ref[i, c]
+        out[r, 3 + 2 * d] = rho[i]
+        for c in range(3):
+            out[r, 4 + 3 * d + c] = coords[i, c]
+
+
+@njit(cache=True)
+def unpack_ghosts(rows, start, shift, row_shift, gid, kind, mass, pos, vel, rho, ref, coords):
+    """Ghost rows as particles start, start + 1, ...: y of pos and ref shifted by ``shift``, the cell row
+    by ``row_shift`` (across y = 0 or y = Ly)."""
+    d = pos.shape[1]
+    for r in range(rows.shape[0]):
+        i = start + r
+        gid[i] = np.int64(rows[r, 0])
+        kind[i] = np.int64(rows[r, 1])
+        mass[i] = rows[r, 2]
+        for c in range(d):
+            pos[i, c] = rows[r, 3 + c]
+            vel[i, c] = rows[r, 3 + d + c]
+            ref[i, c] = rows[r, 4 + 2 * d + c]
+        rho[i] = rows[r, 3 + 2 * d]
+        for c in range(3):
+            coords[i, c] = np.int64(rows[r, 4 + 3 * d + c])
+        pos[i, 1] += shift
+        ref[i, 1] += shift
+        coords[i, 1] += row_shift
+
+
+@njit(cache=True)
+def copy_images(src, start, axis, shift, cells, gid, kind, mass, pos, vel, rho, ref, coords):
+    """Periodic images of particles ``src`` as start, start + 1, ...: pos and ref moved by ``shift[q]``
+    along ``axis``, their cell by +cells (shift > 0) or -cells."""
+    d = pos.shape[1]
+    for q in range(src.shape[0]):
+        s = src[q]
+        i = start + q
+        gid[i] = gid[s]
+        kind[i] = kind[s]
+        mass[i] = mass[s]
+        rho[i] = rho[s]
+        for c in range(d):
+            pos[i, c] = pos[s, c]
+            vel[i, c] = vel[s, c]
+            ref[i, c] = ref[s, c]
+        for c in range(3):
+            coords[i, c] = coords[s, c]
+        pos[i, axis] += shift[q]
+        ref[i, axis] += shift[q]
+        coords[i, axis] += cells if shift[q] > 0 else -cells

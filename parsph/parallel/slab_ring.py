@@ -31,12 +31,14 @@ import numpy as np
 from mpi4py import MPI
 
 from . import native_mpi
-from .halo_rows import pack_forward, pack_scalar, unpack_forward, unpack_scalar
+from .halo_rows import copy_images, pack_forward, pack_ghosts, pack_scalar, unpack_forward, unpack_ghosts, unpack_scalar
 from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
 from parsph.sph.neighbours import CellBox
 from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
 
 TAG_MOVE_UP, TAG_MOVE_DOWN = 13, 14
+# the fields a ghost or image carries (halo_rows.pack_ghosts, copy_images)
+GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
 
 
 class SlabRing:
@@ -247,12 +249,12 @@ class SlabRing:
             ps.put_rows(from_right, n0 + len(from_left))
             ps.n_own = ps.n = n0 + k
 
-    def exchange_ghosts(self, ps, coords, ghost_fields):
+    def exchange_ghosts(self, ps, coords):
         """Receive as ghosts the neighbours' particles in the cell rows this slab needs; returns the coords array.
 
         ``coords`` (int64, (capacity, 3)): integer cell coordinates of the owned
         particles; the ghosts' are appended (their row shifted by -+ny across
-        y = Ly). ``ghost_fields`` are the particle fields a ghost carries.
+        y = Ly). A ghost carries :data:`GHOST_FIELDS` (halo_rows.pack_ghosts).
         """
         t_in = self.clock()
         P, r, m, ny = self.size, self.rank, self.m, self.ny
@@ -264,41 +266,35 @@ class SlabRing:
         up_rows = cy - (ny if r == P - 1 else 0)
         self.send_down = np.flatnonzero(down_rows <= last[self.left] + m).astype(np.int64)
         self.send_up = np.flatnonzero(up_rows >= first[self.right] - m).astype(np.int64)
+        width = 7 + 3 * ps.dim
 
-        def rows(idx):
-            cols = [getattr(ps, f)[idx].reshape(len(idx), int(np.prod(getattr(ps, f).shape[1:], dtype=np.int64)))
-                    .astype(float) for f in ghost_fields]
-            return np.concatenate(cols + [coords[idx].astype(float)], axis=1)
+        def rows(idx, key):
+            out = self._buf(("ghost rows", key), len(idx), width)[:len(idx)]
+            pack_ghosts(idx, ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, ps.rho, ps.ref, coords, out)
+            return out
 
-        below, above = self._send_receive(rows(self.send_up), rows(self.send_down), (TAG_UP, TAG_DOWN),
+        below, above = self._send_receive(rows(self.send_up, "up"), rows(self.send_down, "down"), (TAG_UP, TAG_DOWN),
                                           "exchange_ghosts")
-        self.n_below, self.n_above = len(below), len(above)
-        k = self.n_below + self.n_above
+        self.n_below, self.n_above = nb, na = len(below), len(above)
         ps.n = n
-        ps.ensure(n + k, keep=n)
-        if len(coords) < ps.capacity:
-            coords = np.concatenate([coords, np.zeros((ps.capacity - len(coords), 3), np.int64)])
-        allrows = np.concatenate([below, above])
-        c = 0
-        for f in ghost_fields:
-            arr = getattr(ps, f)
-            w = int(np.prod(arr.shape[1:], dtype=np.int64))
-            arr[n:n + k] = allrows[:, c:c + w].reshape((k,) + arr.shape[1:]).astype(arr.dtype)
-            c += w
-        coords[n:n + k] = allrows[:, c:c + 3].astype(np.int64)
-        for f in ("pos", "ref"):
-            if f in ghost_fields:
-                getattr(ps, f)[n:n + self.n_below, 1] += self.shift_below
-                getattr(ps, f)[n + self.n_below:n + k, 1] += self.shift_above
-        if r == 0:
-            coords[n:n + self.n_below, 1] -= ny
-        if r == P - 1:
-            coords[n + self.n_below:n + k, 1] += ny
-        ps.n = n + k
+        ps.ensure(n + nb + na, keep=n)
+        coords = self._room(coords, ps.capacity)
+        for part, start, shift, row_shift in ((below, n, self.shift_below, -ny if r == 0 else 0),
+                                              (above, n + nb, self.shift_above, ny if r == P - 1 else 0)):
+            unpack_ghosts(part, start, float(shift), row_shift, ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, ps.rho,
+                          ps.ref, coords)
+        ps.n = n + nb + na
         self.stats["seconds"]["exchange_ghosts"] += self.clock() - t_in
         return coords
 
-    def add_images(self, ps, coords, image_fields):
+    @staticmethod
+    def _room(coords, capacity):
+        """``coords`` with at least ``capacity`` rows."""
+        if len(coords) < capacity:
+            coords = np.concatenate([coords, np.zeros((capacity - len(coords), 3), np.int64)])
+        return coords
+
+    def add_images(self, ps, coords):
         """Periodic copies along x (without walls) and z (3-D) of the M rows of cells at each end.
 
         Copies of the rows 0..M-1 go to n..n+M-1 (shift +period), of the rows
@@ -319,17 +315,8 @@ class SlabRing:
             shift = np.concatenate([np.full(len(lo), a.period), np.full(len(hi), -a.period)])
             k = len(src)
             ps.ensure(n + k, keep=n)
-            if len(coords) < ps.capacity:
-                coords = np.concatenate([coords, np.zeros((ps.capacity - len(coords), 3), np.int64)])
-            for f in image_fields:
-                arr = getattr(ps, f)
-                arr[n:n + k] = arr[src]
-            for f in ("pos", "ref"):
-                if f in image_fields:
-                    getattr(ps, f)[n:n + k, axis] += shift
-            coords[n:n + k] = coords[src]
-            coords[n:n + len(lo), axis] += a.n
-            coords[n + len(lo):n + k, axis] -= a.n
+            coords = self._room(coords, ps.capacity)
+            copy_images(src, n, axis, shift, a.n, ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, ps.rho, ps.ref, coords)
             ps.n = n + k
             src_all.append(src)
             axis_all.append(np.full(k, axis, np.int64))

@@ -45,7 +45,6 @@ from .block import CODES, Modes, Motion, Rule
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
 BLOCK_SECONDS = 0.1  # a compiled block's length: the stop signal is polled (and progress shown) between blocks
-GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
 
 
 class Interrupted(RuntimeError):
@@ -151,10 +150,16 @@ class Simulation:
                                 self._ictl, self._timers_block, self._scratch)
             self._block_fn = None
         if self._block_fn is None:
-            key = kinds(self._block_args)
-            fn = self._block_versions.get(key)
+            # the arguments' types are those of the first build with these modes (every array is made anew
+            # alike, C-contiguous, at each build): their kinds are read once per modes, not at every build
+            modes = self._block_args[12]
+            fn = self._block_versions.get(modes)
             if fn is None:
-                fn = self._block_versions[key] = compiled(block.run_block, *self._block_args)
+                fn = self._block_versions.get(kinds(self._block_args))
+                if fn is None:
+                    fn = compiled(block.run_block, *self._block_args)
+                    self._block_versions[kinds(self._block_args)] = fn
+                self._block_versions[modes] = fn
             self._block_fn = fn
         return self._block_fn
 
@@ -247,8 +252,8 @@ class Simulation:
         order = self.rates.sort_owned(coords, ps.gid, n, local)
         ps.reorder_owned(order)
         coords[:n] = coords[order]
-        coords = ring.exchange_ghosts(ps, coords, GHOST_FIELDS)
-        coords = ring.add_images(ps, coords, GHOST_FIELDS)
+        coords = ring.exchange_ghosts(ps, coords)
+        coords = ring.add_images(ps, coords)
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
         self.rates.build(ps, coords, local)
         self._block_args = None  # the compiled block's arguments are this build's arrays

@@ -101,9 +101,15 @@ class Particles:
         The DERIVED fields are left as they are (the next evaluation recomputes them)."""
         k = len(order)
         for name, _ in self._carried():
-            arr = getattr(self, name)
-            arr[:k] = arr[order]
+            _take_rows(getattr(self, name), order)
         self.n_own = self.n = k
+
+
+@njit(cache=True)
+def _take_rows(arr, order):
+    """arr[:len(order)] = arr[order] (rows; ``order`` holds each index at most once)."""
+    tmp = arr[order]
+    arr[:order.shape[0]] = tmp
 
 
 @njit(cache=True)
