@@ -1,4 +1,6 @@
-"""The time loop: Python orchestration of the numba stages over one slab.
+"""The time loop over one slab: the events (outputs, checks, the end, a stop) in Python, the steps between
+them in compiled blocks (:mod:`.compiled_steps`, :mod:`.block`) or, where MPI cannot be called from
+compiled code, step by step from Python with the same numba stages.
 
 One step (state at t_n -> t_{n+1}), paper integrator:
 
@@ -9,12 +11,12 @@ One step (state at t_n -> t_{n+1}), paper integrator:
   [output, checks]
   advance:   Eqs. (6)-(7) for the owned particles
 
-The neighbour list (:mod:`parsph.sph.neighbours`) is rebuilt only when the test
-says it may miss a pair, when a snapshot is due (so that a restart, which
-starts with a fresh list, continues bit for bit) and after a stop signal.
-Every rank takes the same decision (an all-reduce of a quantity that does
-not depend on the decomposition), so every rank count rebuilds on the same
-steps and the results do not depend on it, bit for bit.
+The neighbour list (:mod:`parsph.sph.neighbours`) is rebuilt only when the
+test says it may miss a pair (and at the first step: a snapshot keeps the
+positions of the last build, so a restart builds the same list and continues
+bit for bit). Every rank takes the same decision (an all-reduce of a
+quantity that does not depend on the decomposition), so every rank count
+rebuilds on the same steps and the results do not depend on it, bit for bit.
 
 The communicator is passed in; one rank is the same code path (the rank is
 its own neighbour across the periodic boundary).
@@ -25,11 +27,8 @@ from collections import defaultdict
 
 import numpy as np
 
-import numba
-
 from parsph.sph import integrators
 from parsph.physics import limits
-from parsph.parallel import native_mpi
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
 from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
@@ -38,13 +37,11 @@ from parsph.sph.neighbours import cell_coords, grid_for
 from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, state_maxima
 from parsph.sph.profiles import bin_centres, bin_sums, errors
-from parsph.sph.rates import Rates, compiled, kinds
+from parsph.sph.rates import Rates
 from parsph.sph import pass_data
-from . import block
-from .block import CODES, Modes, Motion, Rule
+from .compiled_steps import CompiledSteps
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
-BLOCK_SECONDS = 0.1  # a compiled block's length: the stop signal is polled (and progress shown) between blocks
 
 
 class Interrupted(RuntimeError):
@@ -55,7 +52,7 @@ class Interrupted(RuntimeError):
         self.signum = signum
 
 
-class Simulation:
+class Simulation(CompiledSteps):
     def __init__(self, cfg, comm, state=None, native=None, clock=time.perf_counter):
         """Set up the run on ``comm``; ``state`` (output.read_state: attrs and path) continues a run.
 
@@ -111,57 +108,6 @@ class Simulation:
         self.stop = 0
         self.rebuilds = 0
         self._init_blocks(native)
-
-    def _init_blocks(self, native):
-        """The compiled step's state: where MPI can be called from compiled code (else the Python path)."""
-        cfg = self.cfg
-        self.native, self.native_why = native_mpi.available()
-        if native is False:
-            self.native, self.native_why = False, "native=False"
-        self._ctl = np.zeros(block.N_CTL)
-        self._ictl = np.zeros(block.N_ICTL, np.int64)
-        self._scratch = np.zeros(12)
-        self._timers_block = np.zeros(len(block.TIMER_PHASES))
-        self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
-                          float(limits.THETA_STEP), float(self.skin))
-        self._lin = (-1.0, math.inf)  # (theta bucket, its linear limit) of the auto rule; none yet
-        self._block_steps = 1
-        self.block_calls = 0  # returns from compiled code to Python (blocks run)
-        self._block_args = None
-        self._block_fn = None
-        self._block_versions = {}
-        dim = cfg.dim
-        self._no_gather = pass_data.Gather(np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(0), np.zeros(0),
-                                           np.zeros(0))
-        self._no_state = np.zeros((0, dim))
-
-    def _block(self):
-        """The compiled block for this build's argument types (compiled or loaded from the cache once)."""
-        if self._block_args is None:
-            ps, R, cfg = self.ps, self.rates, self.cfg
-            threaded = numba.get_num_threads() > 1
-            mid = cfg.integrator == "midpoint"
-            motion = Motion(ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self._no_state,
-                            ps.vel0 if mid else self._no_state)
-            modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
-            self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, R.cells,
-                                R.local, R.box, R.work, R.consts, R.switches,
-                                R.gather_arrays() if threaded else self._no_gather, self._rule, modes, self._ctl,
-                                self._ictl, self._timers_block, self._scratch)
-            self._block_fn = None
-        if self._block_fn is None:
-            # the arguments' types are those of the first build with these modes (every array is made anew
-            # alike, C-contiguous, at each build): their kinds are read once per modes, not at every build
-            modes = self._block_args[12]
-            fn = self._block_versions.get(modes)
-            if fn is None:
-                fn = self._block_versions.get(kinds(self._block_args))
-                if fn is None:
-                    fn = compiled(block.run_block, *self._block_args)
-                    self._block_versions[kinds(self._block_args)] = fn
-                self._block_versions[modes] = fn
-            self._block_fn = fn
-        return self._block_fn
 
     def _particles(self, state):
         """This slab's particles: from the scene, from a snapshot (``state["path"]``) or from arrays."""
@@ -378,7 +324,7 @@ class Simulation:
         the state, and may raise to end the run.
 
         ``stop_requested()`` (a signal number, 0 for none) is polled between
-        blocks of steps (at most about ``BLOCK_SECONDS`` apart); when it is set
+        blocks of steps (at most about ``compiled_steps.BLOCK_SECONDS`` apart); when it is set
         on any rank the run writes a final output with particles and raises
         Interrupted on every rank with the same number.
         """
@@ -458,76 +404,3 @@ class Simulation:
         else:
             self.advance(self.dt, stop_requested)
         self.compute_rates()
-
-    def _advance(self, pending, check_every, most=None, stop_requested=None):
-        """At least one step, up to the next output, check or end (``most`` steps at most), in compiled
-        blocks where the messages can be sent from compiled code, else step by step."""
-        cfg = self.cfg
-        target = min(pending[0], cfg.t_end) if pending else cfg.t_end
-        if not self.native:
-            self.step_once(stop_requested, target)
-            return
-        stop_step = (self.step // check_every + 1) * check_every
-        if not cfg.dt_auto:
-            stop_step = min(stop_step, cfg.nsteps)
-            if pending:
-                stop_step = min(stop_step, max(round(pending[0] / cfg.dt), self.step + 1))
-        stop_step = min(stop_step, self.step + (most or self._block_steps))
-        self._stop_local = stop_requested() if stop_requested is not None else 0
-        self._run_blocks(stop_step, target)
-
-    def _run_blocks(self, stop_step, target):
-        """Compiled blocks to ``stop_step`` (or the landing on ``target``): the codes of :mod:`.block`."""
-        ctl, ictl = self._ctl, self._ictl
-        t0 = time.perf_counter()
-        steps0 = self.step
-        while True:
-            ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, target
-            ctl[block.STOP_IN], ctl[block.FORCE_IN], ctl[block.STOP_OUT] = self._stop_local, self.force_rebuild, 0.0
-            ctl[block.LIN_THETA], ctl[block.LIN_DT] = self._lin
-            ictl[block.STEP], ictl[block.STOP_STEP] = self.step, stop_step
-            code = self._block()(*self._block_args)
-            self.block_calls += 1
-            self.t, self.dt, self.step = float(ctl[block.T]), float(ctl[block.DT]), int(ictl[block.STEP])
-            self._bad = self._stop_local = 0
-            self.force_rebuild = False
-            if ctl[block.STOP_OUT]:
-                self.stop = int(ctl[block.STOP_OUT])
-            self._add_block_timers()
-            if code == block.NEED_LIMIT:
-                self._new_limit()
-                continue
-            if code == block.MPI_ERROR:
-                raise RuntimeError("an MPI call of the compiled step failed")
-            if code in (block.REBUILD, block.BAD, block.REBUILD_MID, block.BAD_MID):
-                self._finish_step(code)
-            self._fresh = True
-            break
-        took = time.perf_counter() - t0
-        if self.step > steps0 and took > 0:  # the next block's length: about BLOCK_SECONDS of steps
-            per_step = took / (self.step - steps0)
-            self._block_steps = max(1, min(100_000, int(BLOCK_SECONDS / per_step)))
-
-    def _finish_step(self, code):
-        """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates;
-        at the midpoint, the second half and the step's last sync too."""
-        self._act(self._scratch[3:6].copy())
-        self.rates(self.ps, self.ring, self.timers, self.clock)
-        if code in (block.REBUILD_MID, block.BAD_MID):
-            self._count_step(self.dt, self._correct(self.dt))
-            if self._ctl[block.LAND]:
-                self.t = float(self._ctl[block.T_TARGET])
-            self.compute_rates()
-
-    def _new_limit(self):
-        """The linear limit of the bucket the agreed largest theta is in (the auto rule, Python's side)."""
-        theta_max = min(float(self._scratch[10]), 0.999)
-        bucket = block.bucket(theta_max, limits.THETA_STEP)
-        lim = limits.run_limits(self.cfg, bucket, 0.0, 0.0)
-        self._lin = (bucket, min(lim.values()))
-
-    def _add_block_timers(self):
-        tb = self._timers_block
-        for k, name in enumerate(block.TIMER_PHASES):
-            self.timers[name] += float(tb[k])
-        tb[:] = 0.0

@@ -1,0 +1,146 @@
+"""The compiled steps' side of :class:`parsph.simulation.solver.Simulation`: the block's state and arguments,
+the blocks up to the next event, and what Python does when a block returns in the middle of a step
+(a list build, a blow-up) or needs a new linear limit (auto dt).
+"""
+import math
+import time
+
+import numba
+import numpy as np
+
+from parsph.parallel import native_mpi
+from parsph.physics import limits
+from parsph.sph import pass_data
+from parsph.sph.rates import compiled, kinds
+from . import block
+from .block import Modes, Motion, Rule
+
+BLOCK_SECONDS = 0.1  # a compiled block's length: the stop signal is polled (and progress shown) between blocks
+
+
+class CompiledSteps:
+    """Mixed into Simulation: the steps between events in compiled blocks."""
+
+    def _init_blocks(self, native):
+        """The compiled step's state: where MPI can be called from compiled code (else the Python path)."""
+        cfg = self.cfg
+        self.native, self.native_why = native_mpi.available()
+        if native is False:
+            self.native, self.native_why = False, "native=False"
+        self._ctl = np.zeros(block.N_CTL)
+        self._ictl = np.zeros(block.N_ICTL, np.int64)
+        self._scratch = np.zeros(12)
+        self._timers_block = np.zeros(len(block.TIMER_PHASES))
+        self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
+                          float(limits.THETA_STEP), float(self.skin))
+        self._lin = (-1.0, math.inf)  # (theta bucket, its linear limit) of the auto rule; none yet
+        self._block_steps = 1
+        self.block_calls = 0  # returns from compiled code to Python (blocks run)
+        self._block_args = None
+        self._block_fn = None
+        self._block_versions = {}
+        dim = cfg.dim
+        self._no_gather = pass_data.Gather(np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(0), np.zeros(0),
+                                           np.zeros(0))
+        self._no_state = np.zeros((0, dim))
+
+    def _block(self):
+        """The compiled block for this build's argument types (compiled or loaded from the cache once)."""
+        if self._block_args is None:
+            ps, R, cfg = self.ps, self.rates, self.cfg
+            threaded = numba.get_num_threads() > 1
+            mid = cfg.integrator == "midpoint"
+            motion = Motion(ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self._no_state,
+                            ps.vel0 if mid else self._no_state)
+            modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
+            self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, R.cells,
+                                R.local, R.box, R.work, R.consts, R.switches,
+                                R.gather_arrays() if threaded else self._no_gather, self._rule, modes, self._ctl,
+                                self._ictl, self._timers_block, self._scratch)
+            self._block_fn = None
+        if self._block_fn is None:
+            # the arguments' types are those of the first build with these modes (every array is made anew
+            # alike, C-contiguous, at each build): their kinds are read once per modes, not at every build
+            modes = self._block_args[12]
+            fn = self._block_versions.get(modes)
+            if fn is None:
+                fn = self._block_versions.get(kinds(self._block_args))
+                if fn is None:
+                    fn = compiled(block.run_block, *self._block_args)
+                    self._block_versions[kinds(self._block_args)] = fn
+                self._block_versions[modes] = fn
+            self._block_fn = fn
+        return self._block_fn
+
+    def _advance(self, pending, check_every, most=None, stop_requested=None):
+        """At least one step, up to the next output, check or end (``most`` steps at most), in compiled
+        blocks where the messages can be sent from compiled code, else step by step."""
+        cfg = self.cfg
+        target = min(pending[0], cfg.t_end) if pending else cfg.t_end
+        if not self.native:
+            self.step_once(stop_requested, target)
+            return
+        stop_step = (self.step // check_every + 1) * check_every
+        if not cfg.dt_auto:
+            stop_step = min(stop_step, cfg.nsteps)
+            if pending:
+                stop_step = min(stop_step, max(round(pending[0] / cfg.dt), self.step + 1))
+        stop_step = min(stop_step, self.step + (most or self._block_steps))
+        self._stop_local = stop_requested() if stop_requested is not None else 0
+        self._run_blocks(stop_step, target)
+
+    def _run_blocks(self, stop_step, target):
+        """Compiled blocks to ``stop_step`` (or the landing on ``target``): the codes of :mod:`.block`."""
+        ctl, ictl = self._ctl, self._ictl
+        t0 = time.perf_counter()
+        steps0 = self.step
+        while True:
+            ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, target
+            ctl[block.STOP_IN], ctl[block.FORCE_IN], ctl[block.STOP_OUT] = self._stop_local, self.force_rebuild, 0.0
+            ctl[block.LIN_THETA], ctl[block.LIN_DT] = self._lin
+            ictl[block.STEP], ictl[block.STOP_STEP] = self.step, stop_step
+            code = self._block()(*self._block_args)
+            self.block_calls += 1
+            self.t, self.dt, self.step = float(ctl[block.T]), float(ctl[block.DT]), int(ictl[block.STEP])
+            self._bad = self._stop_local = 0
+            self.force_rebuild = False
+            if ctl[block.STOP_OUT]:
+                self.stop = int(ctl[block.STOP_OUT])
+            self._add_block_timers()
+            if code == block.NEED_LIMIT:
+                self._new_limit()
+                continue
+            if code == block.MPI_ERROR:
+                raise RuntimeError("an MPI call of the compiled step failed")
+            if code in (block.REBUILD, block.BAD, block.REBUILD_MID, block.BAD_MID):
+                self._finish_step(code)
+            self._fresh = True
+            break
+        took = time.perf_counter() - t0
+        if self.step > steps0 and took > 0:  # the next block's length: about BLOCK_SECONDS of steps
+            per_step = took / (self.step - steps0)
+            self._block_steps = max(1, min(100_000, int(BLOCK_SECONDS / per_step)))
+
+    def _finish_step(self, code):
+        """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates;
+        at the midpoint, the second half and the step's last sync too."""
+        self._act(self._scratch[3:6].copy())
+        self.rates(self.ps, self.ring, self.timers, self.clock)
+        if code in (block.REBUILD_MID, block.BAD_MID):
+            self._count_step(self.dt, self._correct(self.dt))
+            if self._ctl[block.LAND]:
+                self.t = float(self._ctl[block.T_TARGET])
+            self.compute_rates()
+
+    def _new_limit(self):
+        """The linear limit of the bucket the agreed largest theta is in (the auto rule, Python's side)."""
+        theta_max = min(float(self._scratch[10]), 0.999)
+        bucket = block.bucket(theta_max, limits.THETA_STEP)
+        lim = limits.run_limits(self.cfg, bucket, 0.0, 0.0)
+        self._lin = (bucket, min(lim.values()))
+
+    def _add_block_timers(self):
+        tb = self._timers_block
+        for k, name in enumerate(block.TIMER_PHASES):
+            self.timers[name] += float(tb[k])
+        tb[:] = 0.0
