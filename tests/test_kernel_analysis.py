@@ -6,7 +6,9 @@
 * the continuum values, by Gauss-Legendre quadrature of the kernels typed here:
   the viscous sum's second moment -pi int r^2 W'(r) dr and int W dA, both 1;
   the lattice sums tend to them as h/dx grows;
-* the symmetry of the sheared lattices: the shift s and 1 - s are mirror images (y -> -y).
+* the symmetry of the sheared lattices: the shift s and 1 - s are mirror images (y -> -y);
+* in 3-D and on lattices with dy, dz != dx: the numpy brute force of ``lattice_brute.py`` (kernels
+  typed there in 2-D and 3-D, every lattice point enumerated).
 """
 import math
 
@@ -15,6 +17,8 @@ import pytest
 
 from parsph.physics.lattice_sums import sheared_lattice_bias, sheared_lattice_sums, viscosity_bias
 from parsph.physics.kernels import KERNEL_NAMES, lattice_sum, get_kernel
+
+import lattice_brute
 
 
 def cubic(q):
@@ -81,8 +85,39 @@ def test_sums_equal_a_brute_force_pair_sum(kernel, h_over_dx, s):
 def test_square_lattice(kernel, h_over_dx):
     """Shift 0 is the square lattice: viscosity_bias, and kernels.lattice_sum's density (dx = 1)."""
     nu, dens = sheared_lattice_sums(kernel, h_over_dx, 0.0)
-    assert viscosity_bias(kernel, h_over_dx) == nu
+    assert viscosity_bias(kernel, h_over_dx) == pytest.approx(brute_force(kernel, h_over_dx, 0.0)[0], rel=1e-12)
     assert dens == pytest.approx(lattice_sum(get_kernel(kernel, 2), h_over_dx, (1.0, 1.0)), rel=1e-13)
+
+
+def test_the_3d_formulas_of_the_brute_force_are_the_kernels():
+    """lattice_brute's kernels are the package's in 2-D and 3-D (values and derivatives at a few radii)."""
+    q = np.array([0.0, 0.3, 1.0, 1.7, 2.0, 2.5])
+    for name in KERNEL_NAMES:
+        k = get_kernel(name, 3)
+        for dim in (2, 3):
+            w, dw = lattice_brute.kernel(name, dim, q)
+            norm = k.norm(1.0, dim)
+            np.testing.assert_allclose(w, [k.w(x, 1.0, norm) for x in q], rtol=1e-13, atol=1e-16)
+            np.testing.assert_allclose(dw, [k.dwdr(x, 1.0, norm) for x in q], rtol=1e-13, atol=1e-16)
+
+
+SPACINGS = [(1.0, 1.0), (16 / 15, 0.9)]  # (dy, dz) in units of dx
+
+
+@pytest.mark.parametrize("kernel, h_over_dx", [(k, hr) for k in KERNEL_NAMES for hr in (1.25, 2.0, 2.5)])
+@pytest.mark.parametrize("s", [0.0, 0.3, 0.85])
+@pytest.mark.parametrize("dy, dz", SPACINGS)
+def test_3d_sums_equal_a_brute_force_sum(kernel, h_over_dx, s, dy, dz):
+    """The 3-D (sheared) lattice sums, and kernels.lattice_sum (the walls' held density), against the
+    brute force; 2-D with dy != dx too."""
+    for dim in (2, 3):
+        nu, dens = sheared_lattice_sums(kernel, h_over_dx, s, dim, dy, dz)
+        ref_nu, ref_dens = lattice_brute.sheared_sums(kernel, h_over_dx, s, dim, dy, dz)
+        assert nu == pytest.approx(ref_nu, rel=1e-12), dim
+        assert dens == pytest.approx(ref_dens, rel=1e-12), dim
+    if s == 0.0:
+        total = lattice_sum(get_kernel(kernel, 3), h_over_dx, (1.0, dy, dz))
+        assert total * dy * dz == pytest.approx(ref_dens, rel=1e-12)
 
 
 @pytest.mark.parametrize("kernel, h_over_dx", CASES)

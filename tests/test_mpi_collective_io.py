@@ -5,7 +5,9 @@
 The last rank holds no particles when the writer runs: it must still take part
 in every collective call. After the writes and reads, HDF5's own record of the
 transfer (H5Pget_mpio_actual_io_mode, H5Pget_mpio_no_collective_cause, called
-through ctypes on the library h5py loaded) must say collective on every rank.
+through ctypes on the library h5py loaded) must say collective on every rank,
+after every H5Dwrite and H5Dread (test_every_dataset_is_transferred_collectively
+records it per dataset), not only the last of a call.
 The files are compared with the arrays that went in; read_particles on slabs
 other than the writer's with brute-force masks of those arrays. The same checks
 run with PARSPH_SERIAL_HDF5=1 (gather to rank 0; serial reads per rank), where
@@ -125,3 +127,66 @@ def test_collective_write_and_slab_reads(mpi_tmp_path, monkeypatch, serial):
     mine = output.read_particles(path, comm, comm.rank * LY / P, (comm.rank + 1) * LY / P)
     for k in output.RESTART_FIELDS:
         assert np.array_equal(mine[k], np.asarray(fr.fields[k]).astype(output.FILE_DTYPES[k])), k
+
+
+def test_every_dataset_is_transferred_collectively(mpi_tmp_path, monkeypatch):
+    """HDF5's record after every H5Dwrite and H5Dread of an output and a restart read, not only the
+    last: each must have been collective on every rank, the writes must cover every dataset of the
+    file (the profile, which rank 0 writes and the others select nothing of, included) and the reads
+    every dataset read_particles returns rows of. The only other reads are high-level reads of the
+    small layout tables (offset and y_range on rank 0, a few bin_start entries per rank)."""
+    import h5py
+    from mpi4py import MPI
+    from parsph.output import restart, write
+    comm = MPI.COMM_WORLD
+    if not output.parallel_hdf5_available():
+        pytest.skip("h5py without MPI")
+    cfg = config.load(PAPER, [f"domain.Ly={LY}"])
+    fr = frame_of_rank(cfg, comm)
+    n = len(fr.fields["id"])
+    fr.fields["position_raw"] = fr.fields["position"] + 1e-9   # the solver's state: /restart/*
+    fr.fields["ref"] = fr.fields["position"].copy()
+    N = comm.allreduce(n)
+    records = []
+
+    def recording(fn):
+        def wrapped(dset, *args):
+            out = fn(dset, *args)
+            dxpl = args[-1]  # both pass the transfer list last: (dset, start, arr, dxpl), (dset, ranges, dxpl)
+            records.append((dset.name, io_mode(dxpl) if dxpl is not None else "independent: no transfer list"))
+            return out
+        return wrapped
+
+    monkeypatch.setattr(write, "write_rows", recording(output.hdf5.write_rows))
+    monkeypatch.setattr(restart, "read_rows", recording(output.hdf5.read_rows))
+    path = output.Output(comm, str(mpi_tmp_path), "io", cfg, N)(fr, snapshot=True)
+    written, records[:] = list(records), []
+    high_level = set()
+    getitem = h5py.Dataset.__getitem__
+
+    def noting(self, key):
+        high_level.add(self.name)
+        return getitem(self, key)
+
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", noting)
+    P = comm.size
+    got = output.read_particles(path, comm, comm.rank * LY / P, (comm.rank + 1) * LY / P)
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", getitem)
+    read = list(records)
+    assert np.array_equal(got["ref"], fr.fields["ref"])
+
+    collective = (H5D_MPIO_CONTIGUOUS_COLLECTIVE, 0, 0)
+    for what, recs in (("write", written), ("read", read)):
+        everyone = comm.allgather(recs)
+        assert all(len(r) == len(recs) for r in everyone), f"ranks made different numbers of {what}s"
+        bad = [(rank, name, mode) for rank, r in enumerate(everyone) for name, mode in r if mode != collective]
+        assert not bad, f"{what}s that were not collective (rank, dataset, mode): {bad}"
+    with h5py.File(path, "r", driver="mpio", comm=comm) as f:
+        datasets = set()
+        f.visititems(lambda name, obj: datasets.add("/" + name) if isinstance(obj, h5py.Dataset) else None)
+    assert {name for name, _ in written} == datasets
+    assert len(written) == len(datasets)  # each dataset in one call
+    want_read = {f"/particles/{k}" for k in output.RESTART_FIELDS} | {"/restart/position", "/restart/ref",
+                                                                       "/layout/memory_index"}
+    assert {name for name, _ in read} == want_read
+    assert high_level <= {"/layout/offset", "/layout/y_range", "/layout/bin_start"}, high_level
