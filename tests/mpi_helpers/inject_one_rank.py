@@ -2,12 +2,12 @@
 
     mpirun -n 2 python tests/mpi_helpers/inject_one_rank.py raise|nan RANK STEP -- parsph-run-args...
 
-``raise``: on rank RANK, ``Simulation.advance`` raises RuntimeError("injected
-failure") when it is called at step STEP; the other ranks run on normally and
+``raise``: on rank RANK, the solver's step driver (``Simulation._advance``)
+raises RuntimeError("injected failure") when it is called at step STEP; the other ranks run on normally and
 must not hang.
 
-``nan``: on rank RANK, right after the ``Simulation.advance`` that reaches step
-STEP, the y velocity of its first owned fluid particle becomes NaN. Either the
+``nan``: on rank RANK, right after the steps that reach step STEP (the
+driver is held to end its compiled block there), the y velocity of its first owned fluid particle becomes NaN. Either the
 run-time checks (every ``checks.every`` steps, on the state before the next
 step) or, between two checks, the per-step collective flag raised by the next
 integration (non-finite positions) must then stop every rank with exit code 3
@@ -38,17 +38,20 @@ def main(argv):
     mode, rank, step = argv[0], int(argv[1]), int(argv[2])
     rest = argv[4:] if argv[3:4] == ["--"] else argv[3:]
     if MPI.COMM_WORLD.rank == rank:
-        original = parsph.simulation.solver.Simulation.advance
+        # the solver's step driver (compiled blocks, or the Python path step by step), held to end a
+        # block at STEP so that the fault lands at that step exactly
+        original = parsph.simulation.solver.Simulation._advance
 
-        def advance(self, dt, stop_requested=None):
+        def advance(self, pending, check_every, most=None, stop_requested=None):
             if mode == "raise" and self.step == step:
                 raise RuntimeError("injected failure")
-            stop = original(self, dt, stop_requested)
+            if self.step < step:
+                most = min(most or step, step - self.step)
+            original(self, pending, check_every, most, stop_requested)
             if mode == "nan" and self.step == step:
                 put_nan(self, rank, step)
-            return stop
 
-        parsph.simulation.solver.Simulation.advance = advance
+        parsph.simulation.solver.Simulation._advance = advance
     return cli.main(["run", *rest])
 
 
