@@ -41,18 +41,65 @@ symmetric viscosity, walls, consistent pressure, three dimensions) as
 compile-time switches, so that a term switched off leaves no branch in the
 pair loop. The threaded passes hand plain arguments on to their parallel
 kernels (numba's parallel loops misread the arrays of a named tuple).
+
+How the loops are written for speed (docs/performance.md, "Pair passes"):
+the density pass takes the pairs in blocks of :data:`BLOCK`: a scalar loop
+gathers |r_ij|^2 (LLVM vectorises no loop that loads through an index and
+stores, as it cannot rule out that the two overlap), a loop over contiguous
+arrays evaluates the branch-free kernel on vector registers (vsqrtpd,
+vdivpd on ymm), and a scalar loop adds the sums in pair order. The
+momentum pass stays one scalar loop per particle: its work is the
+neighbour's fields, loaded through an index, and the scatter, and split into
+gather, vector and scatter loops it measured slower. All loops index with
+unsigned integers (numba tests a signed index for a negative value) and
+use numpy's error model (no test for a zero divisor). The operations and
+their order are those of :mod:`parsph.sph.reference_passes`, the scalar
+loops, so the results are theirs bit for bit; no ``fastmath``.
 """
 import math
 
-from numba import njit, prange
+import numpy as np
+from numba import njit, prange, uintp
 
 from parsph.physics.closures import _modulus, half_modulus
 from parsph.physics.kernels import kernel_w_f
 from .particles import FLUID
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
+BLOCK = 1024  # pairs per block of the density pass's vector loop (its scratch: 8 KiB)
+
 
 # ---- Eq. (3) ------------------------------------------------------------------------------------
+@njit(cache=True, inline="always")
+def _squared_distances(pos, pi, pj, lo, hi, r2, three_d):
+    """|r_i - r_j|^2 of pairs lo..hi-1 into r2[0 .. hi-lo-1] (scalar: the loads are gathers)."""
+    pib = pi[lo:hi]
+    pjb = pj[lo:hi]
+    for q in range(hi - lo):
+        i = uintp(pib[q])
+        j = uintp(pjb[q])
+        dx = pos[i, 0] - pos[j, 0]
+        dy = pos[i, 1] - pos[j, 1]
+        d2 = dx * dx + dy * dy
+        if len(three_d):
+            dz = pos[i, 2] - pos[j, 2]
+            d2 += dz * dz
+        r2[q] = d2
+
+
+@njit(cache=True, inline="always")
+def _kernel_values(kid, inv_h, norm, r2, w, f, m):
+    """W and (dW/dr)/r of the m distances^2 in r2 into w and f (f may be r2 itself): contiguous arrays and a
+    branch-free kernel, so that this loop runs on vector registers (4 pairs an instruction on AVX2).
+
+    Beyond 2h both are zero (``+ 0.0`` turns the kernel's -0.0 into the +0.0 a skipped pair used to leave).
+    """
+    for q in range(m):
+        wq, fq = kernel_w_f(kid, math.sqrt(r2[q]), inv_h, norm)
+        w[q] = wq
+        f[q] = fq + 0.0
+
+
 @njit(cache=True)
 def density_serial(lst, parts, c, sw):
     """Eq. (3) into ``lst.rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``lst.fp``.
@@ -61,73 +108,69 @@ def density_serial(lst, parts, c, sw):
     neighbours). Its sum starts with its own term, gets the pairs of earlier
     particles as they come, then its own pairs: the pair order.
     """
-    order, pstart, pj, n, fp, rho_sum = lst.order, lst.pstart, lst.pj, lst.n, lst.fp, lst.rho_sum
+    density_blocks(lst, parts, c, sw, BLOCK)
+
+
+@njit(cache=True, error_model="numpy")
+def density_blocks(lst, parts, c, sw, block):
+    """:func:`density_serial` with the pairs taken ``block`` at a time: their distances (gathers), W and
+    (dW/dr)/r (a vector loop), then each particle's sum and the scatter to its neighbours in pair order; a
+    particle's pairs may go on over the next blocks. Any block gives the same numbers bit for bit."""
+    order, pstart, pi, pj, n, fp, rho_sum = lst.order, lst.pstart, lst.pi, lst.pj, lst.n, lst.fp, lst.rho_sum
     pos, mass = parts.pos, parts.mass
     kid, inv_h, norm, w0 = c.kid, c.inv_h, c.norm, c.w0
     three_d = sw.three_d
-    support2 = 4.0 / (inv_h * inv_h)
     for k in range(n):
         rho_sum[k] = mass[k] * w0
-    for a in range(n):
-        lo = pstart[a]
-        hi = pstart[a + 1]
-        if lo == hi:
-            continue
-        i = order[a]
-        xi = pos[i, 0]
-        yi = pos[i, 1]
-        zi = pos[i, 2] if len(three_d) else 0.0
-        mi = mass[i]
-        s = rho_sum[i]
-        for p in range(lo, hi):
-            j = pj[p]
-            dx = xi - pos[j, 0]
-            dy = yi - pos[j, 1]
-            r2 = dx * dx + dy * dy
-            if len(three_d):
-                dz = zi - pos[j, 2]
-                r2 += dz * dz
-            if r2 >= support2:  # beyond 2h (in the skin): W and dW/dr are exactly zero
-                fp[p] = 0.0
-                continue
-            w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
-            fp[p] = f
-            s += mass[j] * w
-            rho_sum[j] += mi * w
-        rho_sum[i] = s
+    wb = np.empty(block)
+    npairs = uintp(pstart[n])
+    step = uintp(block)
+    a = 0
+    for lo in range(uintp(0), npairs, step):
+        hi = min(lo + step, npairs)
+        fpb = fp[lo:hi]
+        _squared_distances(pos, pi, pj, lo, hi, fpb, three_d)  # fp holds |r_ij|^2 until the next line
+        _kernel_values(kid, inv_h, norm, fpb, wb, fpb, hi - lo)
+        pjb = pj[lo:hi]
+        while a < n:  # the particles with pairs in lo..hi-1, in order
+            p0 = max(uintp(pstart[a]), lo)
+            if p0 >= hi:
+                break
+            row_end = uintp(pstart[a + 1])
+            p1 = min(row_end, hi)
+            i = uintp(order[a])
+            mi = mass[i]
+            s = rho_sum[i]
+            for p in range(p0 - lo, p1 - lo):
+                j = uintp(pjb[p])
+                w = wb[p]
+                s += mass[j] * w
+                rho_sum[j] += mi * w
+            rho_sum[i] = s
+            if row_end > hi:
+                break  # its pairs go on in the next block
+            a += 1
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, norm, w0, three_d, rho_sum, fp,
                      wp, need, offset, entry):
     """:func:`density_threaded` on plain arguments (numba's parallel loops read the arrays of named
     tuples wrongly: a sum stayed at its first term)."""
-    support2 = 4.0 / (inv_h * inv_h)
-    for p in prange(npairs):
-        i = pi[p]
-        j = pj[p]
-        dx = pos[i, 0] - pos[j, 0]
-        dy = pos[i, 1] - pos[j, 1]
-        r2 = dx * dx + dy * dy
-        if len(three_d):
-            dz = pos[i, 2] - pos[j, 2]
-            r2 += dz * dz
-        if r2 >= support2:
-            wp[p] = 0.0
-            fp[p] = 0.0
-        else:
-            w, f = kernel_w_f(kid, math.sqrt(r2), inv_h, norm)
-            wp[p] = w
-            fp[p] = f
+    nblocks = (npairs + BLOCK - 1) // BLOCK
+    for b in prange(nblocks):
+        lo = uintp(b * BLOCK)
+        hi = min(lo + uintp(BLOCK), uintp(npairs))
+        fpb = fp[lo:hi]
+        _squared_distances(pos, pi, pj, lo, hi, fpb, three_d)
+        _kernel_values(kid, inv_h, norm, fpb, wp[lo:hi], fpb, hi - lo)
     for k in prange(n):
         s = mass[k] * w0
         if need[k]:
-            for e in range(offset[k], offset[k + 1]):
-                p = entry[e] >> 1
-                if fp[p] == 0.0:  # beyond 2h: skipped as the serial loop skips it
-                    continue
-                other = pi[p] if entry[e] & 1 else pj[p]
-                s += mass[other] * wp[p]
+            for e in range(uintp(offset[k]), uintp(offset[k + 1])):
+                p = uintp(entry[e] >> 1)
+                other = uintp(pi[p] if entry[e] & 1 else pj[p])
+                s += mass[other] * wp[p]  # beyond 2h: an exact zero, as the serial loop adds it
         rho_sum[k] = s
 
 
@@ -199,13 +242,15 @@ def _beta(xk, xo, L, beta_max):
     return beta_max
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def momentum_serial(lst, parts, c, sw):
     """Eq. (5) into ``acc`` of the owned particles (walls: zero), each pair once, in pair order.
 
     Pair (i, j): P (pressure) and V (viscous) are symmetric; i gets
     m_j (P r_ij + mu_i beta V v_ij), j the exact negative of m_i (P r_ij +
-    mu_j beta V v_ij).
+    mu_j beta V v_ij). Indices are unsigned (no test for negative ones) and
+    the error model is numpy's (no test for a zero divisor, which beta's
+    branch excludes): the loop is scalar, and short for it.
     """
     order, pstart, pj, n, fp, fields, need = lst.order, lst.pstart, lst.pj, lst.n, lst.fp, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
@@ -217,11 +262,11 @@ def momentum_serial(lst, parts, c, sw):
         for d in range(dim):
             acc[k, d] = 0.0
     for a in range(n):
-        lo = pstart[a]
-        hi = pstart[a + 1]
+        lo = uintp(pstart[a])
+        hi = uintp(pstart[a + 1])
         if lo == hi:
             continue
-        i = order[a]
+        i = uintp(order[a])
         need_i = need[i]
         fluid_i = kind[i] == FLUID
         xi = pos[i, 0]
@@ -242,7 +287,7 @@ def momentum_serial(lst, parts, c, sw):
             f = fp[p]
             if f == 0.0:  # beyond 2h: the pair adds nothing
                 continue
-            j = pj[p]
+            j = uintp(pj[p])
             th_j = fields[j, THETA]
             P = 0.0
             if len(pressure):
@@ -290,25 +335,27 @@ def momentum_serial(lst, parts, c, sw):
             acc[i, 1] = ay
             if len(three_d):
                 acc[i, 2] = az
+    _finish_acc(acc, kind, g, three_d, n_own)
+
+
+@njit(cache=True)
+def _finish_acc(acc, kind, g, three_d, n_own):
+    """Owned fluid particles: + g; owned walls: zero (one call: an inlined call per particle would count
+    references to its arrays every time)."""
     for k in range(n_own):
-        _finish_acc(acc, k, kind, g, three_d)
+        if kind[k] == FLUID:
+            acc[k, 0] += g[0]
+            acc[k, 1] += g[1]
+            if len(three_d):
+                acc[k, 2] += g[2]
+        else:
+            acc[k, 0] = 0.0
+            acc[k, 1] = 0.0
+            if len(three_d):
+                acc[k, 2] = 0.0
 
 
-@njit(cache=True, inline="always")
-def _finish_acc(acc, k, kind, g, three_d):
-    if kind[k] == FLUID:
-        acc[k, 0] += g[0]
-        acc[k, 1] += g[1]
-        if len(three_d):
-            acc[k, 2] += g[2]
-    else:
-        acc[k, 0] = 0.0
-        acc[k, 1] = 0.0
-        if len(three_d):
-            acc[k, 2] = 0.0
-
-
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, error_model="numpy")
 def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
                       k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
                       Pp, Vp, offset, entry):
@@ -316,8 +363,8 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for p in prange(npairs):
-        i = pi[p]
-        j = pj[p]
+        i = uintp(pi[p])
+        j = uintp(pj[p])
         f = fp[p]
         P = 0.0
         if len(pressure):
@@ -335,12 +382,12 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         ay = 0.0
         az = 0.0
         if need[k]:
-            for e in range(offset[k], offset[k + 1]):
-                p = entry[e] >> 1
+            for e in range(uintp(offset[k]), uintp(offset[k + 1])):
+                p = uintp(entry[e] >> 1)
                 if fp[p] == 0.0:  # beyond 2h: skipped as the serial loop skips it
                     continue
-                i = pi[p]
-                j = pj[p]
+                i = uintp(pi[p])
+                j = uintp(pj[p])
                 o = i if entry[e] & 1 else j
                 P = Pp[p]
                 V = Vp[p]
@@ -370,11 +417,19 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
                     ay += m * (P * ry + s * vy)
                     if len(three_d):
                         az += m * (P * rz + s * vz)
+        if kind[k] != FLUID:  # walls: zero
+            ax = 0.0
+            ay = 0.0
+            az = 0.0
+        else:
+            ax += g[0]
+            ay += g[1]
+            if len(three_d):
+                az += g[2]
         acc[k, 0] = ax
         acc[k, 1] = ay
         if len(three_d):
             acc[k, 2] = az
-        _finish_acc(acc, k, kind, g, three_d)
 
 
 @njit(cache=True)

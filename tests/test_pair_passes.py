@@ -1,0 +1,128 @@
+"""The density and momentum passes against the scalar loops they replaced, on real pair lists, bit for bit.
+
+:mod:`parsph.sph.reference_passes` keeps the loops as they were before the density pass was split into
+blocks (distances, a vector loop for the kernel, sums in pair order) and the loops were given unsigned
+indices: the same floating-point operations in the same order, so every sum must come out the same to the
+last bit. Checked on the solver's own neighbour list after some steps (particles off the lattice) for the
+scenes' combinations of terms: 2-D and 3-D, walls on and off, body force, the paper's and the consistent
+pressure, both viscosity forms, both kernels; the serial and the threaded passes. One case is also checked
+against a brute-force sum of Eq. (3) over every pair of local particles (an independent reference).
+"""
+import numba
+import numpy as np
+import pytest
+from mpi4py import MPI
+from numba import njit
+
+from parsph.physics.kernels import get_kernel
+from parsph.setup import config
+from parsph.simulation.solver import Simulation
+from parsph.sph import equations, pass_data, reference_passes
+
+from conftest import ROOT
+
+CASES = {
+    "couette_paper": ("couette_paper", ["domain.Ly=0.001"]),
+    "consistent_symmetric_wendland": ("couette_paper", ["domain.Ly=0.001", 'numerics.pressure_form="consistent"',
+                                                        'numerics.viscosity_form="symmetric"',
+                                                        'numerics.kernel="wendland_c2"']),
+    "couette_3d": ("couette_3d", []),
+    "periodic_box": ("periodic_box", ["domain.Ly=0.001"]),
+    "settling": ("settling", []),
+}
+
+
+def stepped(name, over, steps=20):
+    cfg = config.load(ROOT / "run" / f"{name}.toml", [*over, "output.times=[]"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    for _ in range(steps):
+        sim.compute_rates()
+        sim.advance(sim.dt)
+    sim.compute_rates()
+    R = sim.rates
+    return sim, (R.list, pass_data.particle_arrays(sim.ps), R.consts, R.switches)
+
+
+def results(args, need_only=False):
+    """rho_sum (all local particles, or those that need sums), fp as bits, acc of the owned particles."""
+    lst, parts = args[0], args[1]
+    rho = lst.rho_sum[:lst.n]
+    return {"rho_sum": rho[lst.need[:lst.n]].copy() if need_only else rho.copy(),
+            "fp": lst.fp[:lst.npairs].view(np.int64).copy(), "acc": parts.acc[:parts.n_own].copy()}
+
+
+def assert_same(ref, new, what):
+    for key in ref:
+        assert np.array_equal(ref[key], new[key]), f"{what}: {key} differs from the reference loops"
+
+
+@pytest.fixture(scope="module", params=sorted(CASES))
+def case(request):
+    name, over = CASES[request.param]
+    sim, args = stepped(name, over)
+    reference_passes.density_serial(*args)
+    reference_passes.momentum_serial(*args)
+    return request.param, sim, args, results(args), results(args, need_only=True)
+
+
+def test_serial_passes_equal_the_scalar_loops(case):
+    name, sim, args, ref, _ = case
+    lst = args[0]
+    assert lst.npairs > 2 * equations.BLOCK or name == "couette_3d", "the list should span several blocks"
+    assert np.abs(ref["acc"]).max() > 0 and np.count_nonzero(ref["fp"]) < lst.npairs  # pairs in the skin too
+    equations.density_serial(*args)
+    equations.momentum_serial(*args)
+    assert_same(ref, results(args), name)
+
+
+@pytest.mark.parametrize("block", [1, 5, 64])
+def test_any_block_gives_the_same_sums(case, block):
+    """Blocks shorter than a particle's pairs: its sum goes on over several blocks, in the same order."""
+    name, sim, args, ref, _ = case
+    equations.density_blocks(*args, block)
+    new = results(args)
+    for key in ("rho_sum", "fp"):
+        assert np.array_equal(ref[key], new[key]), f"{name}, block {block}: {key} differs"
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="numba allows one thread here")
+def test_threaded_passes_equal_the_scalar_loops(case):
+    name, sim, args, _, ref = case
+    gather = sim.rates._gather_arrays()
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        try:
+            equations.density_threaded(*args, gather)
+            equations.momentum_threaded(*args, gather)
+        finally:
+            numba.set_num_threads(1)
+        assert_same(ref, results(args, need_only=True), f"{name}, {threads} threads")
+
+
+def test_density_against_brute_force():
+    """Eq. (3) by numpy over every pair of local particles (no list, no cells), to round-off."""
+    sim, args = stepped("couette_paper", ["domain.Ly=0.001"])
+    lst, parts, c = args[0], args[1], args[2]
+    equations.density_serial(*args)
+    n = lst.n
+    pos, mass = parts.pos[:n], parts.mass[:n]
+    kernel = get_kernel(sim.cfg.kernel, sim.cfg.dim)
+    r = np.sqrt(((pos[:, None, :] - pos[None, :, :]) ** 2).sum(axis=2))
+    w = np.vectorize(lambda x: kernel.w(x, c.inv_h, c.norm))(r)
+    need = lst.need[:n]
+    brute = (w * mass[None, :]).sum(axis=1)[need]
+    assert need.sum() > 100
+    np.testing.assert_allclose(lst.rho_sum[:n][need], brute, rtol=1e-12)
+
+
+@njit(cache=True)
+def _both_passes(lst, parts, c, sw):
+    equations.density_serial(lst, parts, c, sw)
+    equations.momentum_serial(lst, parts, c, sw)
+
+
+def test_passes_run_inside_another_compiled_function(case):
+    """The integrator's compiled step loop calls the passes from numba: the same numbers."""
+    name, sim, args, ref, _ = case
+    _both_passes(*args)
+    assert_same(ref, results(args), name)
