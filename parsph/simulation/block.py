@@ -105,16 +105,18 @@ def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
     n, n_own = lst.n, parts.n_own
     if len(modes.threaded):
         equations.density_threaded(lst, parts, c, sw, gather)
+        equations.particle_factors(lst, parts, c, sw, 0, n_own)
     else:
         equations.density_serial(lst, parts, c, sw)
-    equations.particle_factors(lst, parts, c, sw, 0, n_own)
+        equations.particle_factors_serial(lst, parts, c, sw, 0, n_own)
     t1 = wtime()
     err = native_halo.refresh(plan, parts.rho, n_own)
     t2 = wtime()
-    equations.particle_factors(lst, parts, c, sw, n_own, n)
     if len(modes.threaded):
+        equations.particle_factors(lst, parts, c, sw, n_own, n)
         equations.momentum_threaded(lst, parts, c, sw, gather)
     else:
+        equations.particle_factors_serial(lst, parts, c, sw, n_own, n)
         equations.momentum_serial(lst, parts, c, sw)
     t3 = wtime()
     timers[DENSITY] += t1 - t0

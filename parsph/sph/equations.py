@@ -195,24 +195,29 @@ def pressure_factor(th, rho_i, G_a, G_b, consistent):
     return half_modulus(th, G_a)
 
 
+@njit(cache=True, inline="always")
+def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel, theta, fields):
+    """rho, theta and the pair loops' row of particle k."""
+    if k < owned_stop and kind[k] == FLUID:
+        rho[k] = rho_sum[k]
+    r = rho[k]
+    th = r / rho_s
+    theta[k] = th
+    for d in range(vel.shape[1]):
+        fields[k, d] = vel[k, d]
+    fields[k, THETA] = th
+    fields[k, INV_RHO] = 1.0 / r
+    fields[k, INV_THETA] = 1.0 / th
+    if len(pressure):
+        fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent)
+
+
 @njit(cache=True, parallel=True)
 def _particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel,
                      theta, fields):
     """:func:`particle_factors` on plain arguments (see :func:`_density_threaded`)."""
-    dim = vel.shape[1]
     for k in prange(start, stop):
-        if k < owned_stop and kind[k] == FLUID:
-            rho[k] = rho_sum[k]
-        r = rho[k]
-        th = r / rho_s
-        theta[k] = th
-        for d in range(dim):
-            fields[k, d] = vel[k, d]
-        fields[k, THETA] = th
-        fields[k, INV_RHO] = 1.0 / r
-        fields[k, INV_THETA] = 1.0 / th
-        if len(pressure):
-            fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent)
+        _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel, theta, fields)
 
 
 @njit(cache=True)
@@ -225,6 +230,14 @@ def particle_factors(lst, parts, c, sw, start, stop):
     """
     _particle_factors(parts.rho, lst.rho_sum, parts.kind, start, stop, parts.n_own, c.rho_s, c.G_a, c.G_b,
                       sw.pressure, sw.consistent, parts.vel, parts.theta, lst.fields)
+
+
+@njit(cache=True)
+def particle_factors_serial(lst, parts, c, sw, start, stop):
+    """:func:`particle_factors` on one thread (no parallel region to start: the compiled step's choice)."""
+    for k in range(start, stop):
+        _factors_one(k, parts.rho, lst.rho_sum, parts.kind, parts.n_own, c.rho_s, c.G_a, c.G_b, sw.pressure,
+                     sw.consistent, parts.vel, parts.theta, lst.fields)
 
 
 # ---- Eq. (5) ------------------------------------------------------------------------------------
