@@ -103,7 +103,7 @@ from parsph.physics import analytic  # noqa: E402
 from parsph.setup.scenes import settling as settling_scene  # noqa: E402
 from parsph.physics.closures import modulus  # noqa: E402
 from parsph.sph.particles import FLUID  # noqa: E402
-from parsph.simulation.guards import GuardError  # noqa: E402
+from parsph.errors import GuardError  # noqa: E402
 from parsph.simulation.solver import Simulation  # noqa: E402
 
 PAPER = ROOT / "run" / "couette_paper.toml"

@@ -39,7 +39,8 @@ from mpi4py import MPI  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
 from parsph.sph.particles import FLUID  # noqa: E402
-from parsph.simulation.solver import GuardError, Simulation  # noqa: E402
+from parsph.errors import GuardError  # noqa: E402
+from parsph.simulation.solver import Simulation  # noqa: E402
 
 TIMES = (0.01, 0.05, 0.2, 0.5)
 DEFAULTS = {"h_over_dx": 1.25, "kernel": "cubic_spline", "integrator": "paper", "dt": "auto",

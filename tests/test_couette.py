@@ -170,7 +170,7 @@ def test_auto_dt_midpoint_lands_on_output_times(coarse):
 
 def test_plot_reference_lines_reach_the_plates():
     """`parsph plot` draws Eq. (8) on a fine grid over [0, L]: 0 at the fixed plate, V_w at the moving one."""
-    from parsph.cli.command import reference_lines
+    from parsph.cli.report import reference_lines
     text = PAPER_TOML.read_text()
     cfg = config.loads(text)
     times = np.array([1e-4, 0.01, 0.5])

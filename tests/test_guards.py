@@ -21,7 +21,9 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.sph.particles import FLUID
-from parsph.simulation.solver import CHECKS, GuardError, Simulation
+from parsph.errors import GuardError
+from parsph.simulation.guards import CHECKS
+from parsph.simulation.solver import Simulation
 
 from conftest import PAPER_TOML
 
@@ -45,7 +47,8 @@ WORST = textwrap.dedent("""
     from mpi4py import MPI
     from parsph.setup import config
     from parsph.sph.particles import FLUID
-    from parsph.simulation.solver import GuardError, Simulation
+    from parsph.errors import GuardError
+    from parsph.simulation.solver import Simulation
     comm = MPI.COMM_WORLD
     cfg = config.load(sys.argv[1], sys.argv[3:])
     sim = Simulation(cfg, comm)

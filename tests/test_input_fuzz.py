@@ -67,7 +67,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
 import common as C  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
-from parsph.setup.config import REQUIRED, SCHEMA, ConfigError  # noqa: E402
+from parsph.errors import ConfigError  # noqa: E402
+from parsph.setup.schema import REQUIRED, SCHEMA  # noqa: E402
 
 BASE_TEXT = C.PAPER.read_text()
 BASE = tomllib.loads(BASE_TEXT)

@@ -226,11 +226,12 @@ def test_every_physics_key_is_covered():
 @pytest.mark.parametrize("key", sorted(PHYSICS_CHANGES))
 def test_restart_refuses_a_physics_change(runs, key):
     """In process (run.restart_state): UsageError naming the key, for every physics key."""
-    from parsph.cli import exits, run
+    from parsph.cli import run
+    from parsph.errors import UsageError
     from parsph.setup import config
     snap = runs("half", "paper", 1) / name(0)
     cfg = config.load(C.PAPER, [*FULL, f"{key}={PHYSICS_CHANGES[key]}"])
-    with pytest.raises(exits.UsageError) as e:
+    with pytest.raises(UsageError) as e:
         run.restart_state(cfg, str(snap))
     msg = str(e.value)
     assert "\n" not in msg

@@ -27,10 +27,11 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.setup.config import ConfigError
+from parsph.errors import ConfigError, GuardError
 from parsph.output import output_files, read_profile
 from parsph.sph.particles import FLUID
-from parsph.simulation.solver import CHECKS, GuardError, Simulation
+from parsph.simulation.guards import CHECKS
+from parsph.simulation.solver import Simulation
 
 from conftest import PAPER_TOML, paper_raw, run_cli
 
@@ -227,7 +228,8 @@ ALL_RANKS = textwrap.dedent("""
     from mpi4py import MPI
     from parsph.setup import config
     from parsph.output import Output
-    from parsph.simulation.solver import GuardError, Simulation
+    from parsph.errors import GuardError
+    from parsph.simulation.solver import Simulation
     comm = MPI.COMM_WORLD
     cfg = config.load(sys.argv[1], sys.argv[3:])
     sim = Simulation(cfg, comm)

@@ -3,4 +3,6 @@
 
 The top layer: may import every other.
 """
-from .command import main  # noqa: F401  (the console script parsph.cli:main)
+from .command import main
+
+__all__ = ["main"]  # the console script parsph.cli:main

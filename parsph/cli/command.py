@@ -16,10 +16,10 @@ Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
 import argparse
 import sys
 
-from .report import cmd_check, cmd_plot, print_table, profile_png, reference_lines  # noqa: F401
-from .run import (RESTART_FREE, fits_in_memory, restart_state, run_reporting,  # noqa: F401
-                          Signals, cmd_run)
-from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL, UsageError, agree  # noqa: F401
+from parsph.errors import UsageError
+from .exits import EXIT_BAD_INPUT
+from .report import cmd_check, cmd_plot
+from .run import cmd_run
 
 
 def build_parser():

@@ -4,12 +4,13 @@ import os
 import re
 import sys
 
-from .exits import EXIT_ERROR, UsageError
+from parsph.errors import ConfigError, UsageError
+from .exits import EXIT_ERROR
 
 
 def _current_scales(p):
     """Per output time, what is left of a decaying flow (the scene's current_scale), else None."""
-    from parsph.setup.config import ConfigError, loads
+    from parsph.setup.config import loads
     from parsph.setup.scenes import error_scale
     try:
         cfg = loads(p["attrs"]["run_file"])

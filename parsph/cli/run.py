@@ -1,6 +1,6 @@
 """``parsph run``: validate on every rank, set up, run the time loop, report, and end with one exit code.
 
-Bad input ends every rank alike with code 2 (:func:`parsph.cli.exits.agree`); a
+Bad input ends every rank alike with code 2 (:func:`parsph.errors.agree`); a
 failed run-time check with 3; SIGINT / SIGTERM after a final snapshot with
 130 / 143; anything else on one rank calls ``MPI_Abort``.
 """
@@ -10,7 +10,8 @@ import signal
 import sys
 
 from .report import print_table
-from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL, UsageError, agree
+from parsph.errors import ConfigError, GuardError, Interrupted, UsageError, agree
+from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL
 
 # Sections a restart may change; every other key is physics and must match.
 RESTART_FREE = ("output", "checks")
@@ -61,7 +62,6 @@ def cmd_run(args):
 
 def run_reporting(comm, args, say, signals):
     """_run, with every way it can end turned into one message and an exit code."""
-    from parsph.simulation.solver import GuardError, Interrupted
     root = comm.rank == 0
     try:
         return _run(comm, args, say, signals)
@@ -97,7 +97,7 @@ def restart_state(cfg, path):
         old = config.loads(state["attrs"]["run_file"]).values
     except FileNotFoundError:
         raise UsageError(f"--restart {path}: no such output, or no complete output with particles in it") from None
-    except (ValueError, OSError, KeyError, config.ConfigError) as e:
+    except (ValueError, OSError, KeyError, ConfigError) as e:
         raise UsageError(f"--restart {path}: not a usable parsph output ({e})") from None
     for section, keys in cfg.values.items():
         if section in RESTART_FREE:
@@ -208,7 +208,7 @@ def _run(comm, args, say, signals):
 def fits_in_memory(comm, cfg):
     """Refuse a run whose particles cannot fit in the memory of the nodes in use."""
     from mpi4py import MPI
-    from parsph.setup.config import ConfigError, bytes_per_particle
+    from parsph.setup.config import bytes_per_particle
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     hosts = dict(comm.allgather((MPI.Get_processor_name(), mem)))
     have = sum(hosts.values())

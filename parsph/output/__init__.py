@@ -53,7 +53,7 @@ from .files import last_snapshot, output_files, read_profile, read_snapshot
 from .hdf5 import SERIAL_ENV, collective_dxpl, parallel_hdf5_available, read_rows, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS,
                      RESTART_FIELDS, UNITS)
-from .restart import _rows_in, read_particles, read_state  # noqa: F401  (_rows_in: tests count the rows read)
+from .restart import read_particles, read_state
 from .write import Frame, Output, output_name
 from .xdmf import snapshot_entry, write_xdmf, xdmf_grid
 

@@ -29,7 +29,8 @@ from mpi4py import MPI
 
 from .halo_rows import pack_forward, pack_scalar, unpack_forward, unpack_scalar
 from parsph.sph.neighbours import CellBox
-from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
+from parsph.errors import DecompositionError
+from .slabs import cell_rows, fits, max_ranks, min_length, slab_bounds
 
 TAG_UP, TAG_DOWN, TAG_MOVE_UP, TAG_MOVE_DOWN = 11, 12, 13, 14
 

@@ -13,9 +13,10 @@ import tomllib
 
 from parsph.physics.kernels import get_kernel
 from parsph.physics import limits as stability
-from .runfile import apply_overrides, dumps, parse_value  # noqa: F401  (the run-file API lives here too)
+from parsph.errors import ConfigError
+from .runfile import apply_overrides, dumps
 from .scenes import get_scene
-from .schema import REQUIRED, SCHEMA, ConfigError, Key, _finite, validate  # noqa: F401
+from .schema import validate
 
 MAX_NEIGHBOURS = 5000  # lattice neighbours within the support: memory and time per particle grow with it
 
@@ -100,6 +101,13 @@ class RunConfig:
     def get(self, dotted):
         section, key = dotted.split(".")
         return self.values[section][key]
+
+
+def _finite(key, value, what):
+    """A derived quantity must be a finite, positive float: else the key is out of range."""
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(key, f"out of range: {what} = {value!r}")
+    return value
 
 
 def _lattice(v):

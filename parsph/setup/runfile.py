@@ -2,7 +2,7 @@
 (the text an output file stores, from which a restart reads the run again)."""
 import tomllib
 
-from .schema import ConfigError
+from parsph.errors import ConfigError
 
 
 def parse_value(text):

@@ -6,21 +6,12 @@ The key list with units is in docs/running.md ("Run-file keys").
 from dataclasses import dataclass
 import math
 
+from parsph.errors import ConfigError
 from parsph.sph.integrators import INTEGRATORS
 from parsph.physics.kernels import KERNEL_NAMES
 from .scenes import SCENE_NAMES
 
 REQUIRED = object()
-
-
-class ConfigError(Exception):
-    """A bad run file: ``key`` names the offending key."""
-
-    def __init__(self, key, reason):
-        shown = repr(key) if len((key + ".").splitlines()) > 1 else key  # one line, always
-        super().__init__(f"{shown}: {reason}")
-        self.key = key
-        self.reason = reason
 
 
 @dataclass(frozen=True)
@@ -105,13 +96,6 @@ def _float(key, value):
         return float(value)
     except OverflowError:
         raise ConfigError(key, "number too large") from None
-
-
-def _finite(key, value, what):
-    """A derived quantity must be a finite, positive float: else the key is out of range."""
-    if not (math.isfinite(value) and value > 0):
-        raise ConfigError(key, f"out of range: {what} = {value!r}")
-    return value
 
 
 def _typed(key, spec, value):

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from parsph.errors import GuardError
 from parsph.sph.particles import FLUID
 
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
@@ -31,14 +32,6 @@ class GuardResult:
     y: float
     value: float  # 2: depth beyond the plate [m]; 3: theta; 4: kinetic energy [J/m]; 5: the jump [m]
     message: str
-
-
-class GuardError(RuntimeError):
-    """A run-time check failed on some rank; raised on every rank alike with the same ``result``."""
-
-    def __init__(self, result):
-        super().__init__(result.message)
-        self.result = result
 
 
 def run_checks(collect, ps, cfg, step, t):

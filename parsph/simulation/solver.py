@@ -29,7 +29,8 @@ from parsph.sph import integrators
 from parsph.physics import limits
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
-from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
+from parsph.errors import Interrupted
+from .guards import run_checks
 from parsph.physics.kernels import get_kernel, lattice_sum
 from parsph.sph.neighbours import cell_coords, grid_for
 from parsph.output import Frame, read_particles
@@ -40,14 +41,6 @@ from parsph.sph import pass_data
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
 GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
-
-
-class Interrupted(RuntimeError):
-    """A stop was requested (signal); raised on every rank alike after the last output."""
-
-    def __init__(self, message, signum):
-        super().__init__(message)
-        self.signum = signum
 
 
 class Simulation:

@@ -30,9 +30,10 @@ import tomllib
 import numpy as np
 
 from . import estimates
-from .converge_report import _jsonable, analyse, plot, print_report
+from .converge_report import analyse, jsonable, plot, print_report
 from parsph.cli.run import Signals, fits_in_memory, run_reporting
-from parsph.cli.exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, UsageError, agree
+from parsph.cli.exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD
+from parsph.errors import ConfigError, GuardError, UsageError, agree
 
 # Numerics of the presets (docs/accuracy.md, "The frontier"), for --family; "given" is the run file's own.
 FAMILIES = {
@@ -145,7 +146,7 @@ def _plan(args):
                       for l in range(args.levels)]
             for nx, lr in levels:
                 cfg = config.build(lr, config.dumps(lr))
-        except config.ConfigError as e:
+        except ConfigError as e:
             raise UsageError(str(e) if fam == "given" else f"family {fam}: {e}") from None
         if len(cfg.output_times) == 0:
             raise UsageError("output.times is empty: the levels are compared at the output times")
@@ -249,7 +250,7 @@ def _report(comm, args, results, out_dir, scaling):
             report = analyse(results, args.ratio, args.target, scaling)
             print_report(report)
             with open(os.path.join(out_dir, "converge.json"), "w") as f:
-                json.dump(_jsonable(report), f, indent=1)
+                json.dump(jsonable(report), f, indent=1)
             png = os.path.join(out_dir, "converge.png")
             plot(report, png)
             print(f"wrote {os.path.join(out_dir, 'converge.json')} and {png}")
@@ -263,7 +264,6 @@ def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, w
     """Run one level (or reuse it): its record, or an exit code."""
     from argparse import Namespace
     from parsph.setup import config
-    from parsph.simulation.solver import GuardError
     root = comm.rank == 0
     # the header names no level index, so a study from another base N_x can reuse this level
     text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + config.dumps(lr)

@@ -182,15 +182,16 @@ def print_report(rep):
                   f"(about {c['cpu_s']:.3g} CPU s)")
 
 
-def _jsonable(o):
+def jsonable(o):
+    """``o`` as JSON takes it: numpy scalars as numbers, non-finite floats as null, keys with a leading _ left out."""
     if isinstance(o, dict):
-        return {k: _jsonable(v) for k, v in o.items() if not k.startswith("_")}
+        return {k: jsonable(v) for k, v in o.items() if not k.startswith("_")}
     if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
+        return [jsonable(v) for v in o]
     if isinstance(o, float) and not math.isfinite(o):
         return None
     if isinstance(o, (np.floating, np.integer)):
-        return _jsonable(o.item())
+        return jsonable(o.item())
     return o
 
 
