@@ -28,6 +28,7 @@ from numba import njit
 from numba.core.registry import CPUDispatcher
 
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.parallel import slab_ring
 from parsph.sph import equations, integrators, neighbours, particles, profiles, rates
 from parsph.simulation import solver
@@ -39,9 +40,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def make_config(nx, extra=()):
     raw = tomllib.loads(open(os.path.join(ROOT, "run", "couette_paper.toml")).read())
     del raw["numerics"]["h"]
-    config.apply_overrides(raw, [f"numerics.Nx={nx}", "numerics.h_over_dx=1.25", 'numerics.dt="auto"',
-                                 "output.times=[]", "output.t_end=1.0", *extra])
-    return config.build(raw, config.dumps(raw))
+    return config.build(RunFile(raw).override([f"numerics.Nx={nx}", "numerics.h_over_dx=1.25", 'numerics.dt="auto"',
+                                                "output.times=[]", "output.t_end=1.0", *extra]))
 
 
 class NumbaClock:

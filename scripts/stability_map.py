@@ -98,6 +98,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 from mpi4py import MPI  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
+from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.physics import limits  # noqa: E402
 from parsph.physics import analytic  # noqa: E402
 from parsph.setup.scenes import settling as settling_scene  # noqa: E402
@@ -170,8 +171,7 @@ def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, ex
             f"output.t_end={steps * dt!r}", "output.times=[]", "output.progress_interval=0",
             "checks.every=1", f"checks.theta_change={theta_frac!r}", "checks.energy=true",
             f'numerics.integrator="{integrator}"', *extra]
-    config.apply_overrides(raw, over)
-    return config.build(raw, config.dumps(raw))
+    return config.build(RunFile(raw).override(over))
 
 
 class Recorder:
@@ -810,8 +810,7 @@ def settling_limits(theta0, nx, theta=None):
     L = raw["domain"]["L"]
     over = [f"numerics.Nx={nx}", f"material.theta0={theta0!r}", f"domain.Ly={LY_IN_H * raw['numerics']['h_over_dx'] * L / nx!r}",
             'numerics.dt="auto"']
-    config.apply_overrides(raw, over)
-    cfg = config.build(raw, config.dumps(raw))
+    cfg = config.build(RunFile(raw).override(over))
     g = math.sqrt(sum(x * x for x in cfg.g))
     return limits.run_limits(cfg, theta0 if theta is None else theta, cfg.velocity_scale, g)
 
@@ -827,8 +826,7 @@ def settling_config(theta0, nx, multiple, steps=None, extra=()):
             f"numerics.dt={multiple * lim!r}", "numerics.allow_unstable_dt=true",
             f"output.t_end={steps * lim!r}", "output.times=[]", "output.progress_interval=0",
             "checks.every=1", "checks.theta_change=1.0", "checks.energy=true", *extra]
-    config.apply_overrides(raw, over)
-    return config.build(raw, config.dumps(raw))
+    return config.build(RunFile(raw).override(over))
 
 
 class SettlingRecorder(Recorder):

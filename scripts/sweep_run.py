@@ -38,6 +38,7 @@ if "--code" in sys.argv:  # a snapshot of parsph (scripts/sweep.py makes one), a
 from mpi4py import MPI  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
+from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.sph.particles import FLUID  # noqa: E402
 from parsph.errors import GuardError  # noqa: E402
 from parsph.simulation.solver import Simulation  # noqa: E402
@@ -61,14 +62,13 @@ def build_config(run):
     raw["numerics"].pop("h", None)
     dt = '"auto"' if c["dt"] == "auto" else repr(float(c["dt"]))
     times = [t for t in TIMES if t <= c["t_end"] * (1 + 1e-12)]
-    config.apply_overrides(raw, [
+    return config.build(RunFile(raw).override([
         f"numerics.Nx={int(c['Nx'])}", f"numerics.h_over_dx={float(c['h_over_dx'])!r}",
         f'numerics.kernel="{c["kernel"]}"', f'numerics.integrator="{c["integrator"]}"',
         f"numerics.dt={dt}", f"numerics.dt_safety={float(c['dt_safety'])!r}",
         f"walls.beta_max={float(c['beta_max'])!r}", f"walls.layers={int(c['layers'])}",
         f"output.t_end={float(c['t_end'])!r}", f"output.times={times!r}",
-        "output.progress_interval=0.0", "output.snapshots=false", *c["set"]])
-    return config.build(raw, config.dumps(raw))
+        "output.progress_interval=0.0", "output.snapshots=false", *c["set"]]))
 
 
 def warm_up(run):

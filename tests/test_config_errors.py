@@ -203,13 +203,14 @@ def test_numerics_options(paper_cfg):
 def test_smoothing_length_errors_name_the_cause(overrides, key, words):
     """An h too large for the box or too small to reach a neighbour is blamed on the h key given."""
     from parsph.setup import config
+    from parsph.setup.runfile import RunFile
     from conftest import paper_raw
     raw = paper_raw()
     if "numerics.h=None" in overrides:
         raw["numerics"].pop("h")
-    config.apply_overrides(raw, [o for o in overrides if o != "numerics.h=None"])
+    run_file = RunFile(raw).override([o for o in overrides if o != "numerics.h=None"])
     with pytest.raises(ConfigError) as e:
-        config.build(raw, config.dumps(raw))
+        config.build(run_file)
     assert e.value.key == key, e.value
     for w in words:
         assert w in str(e.value), (w, str(e.value))

@@ -5,7 +5,7 @@
 Properties:
 
 * In process (``parsph.setup.config``: what ``load`` / ``loads`` do after reading
-  the file: ``build(raw, dumps(raw))``): whatever a run file holds (any TOML
+  the file: ``build(RunFile(raw))``): whatever a run file holds (any TOML
   type in any key, missing and unknown keys and sections, NaN, +-inf, zero,
   negative, subnormal, huge and non-64-bit numbers, several bad keys at once,
   random text, random ``--set`` overrides), validation either returns a
@@ -67,6 +67,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
 import common as C  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
+from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.errors import ConfigError  # noqa: E402
 from parsph.setup.schema import REQUIRED, SCHEMA  # noqa: E402
 
@@ -140,8 +141,7 @@ def base():
 
 def validate_raw(raw):
     """config.loads after tomllib: the text is written before validation, as there."""
-    text = config.dumps(raw)
-    return config.build(raw, text)
+    return config.build(RunFile(raw))
 
 
 def outcome(raw, what):

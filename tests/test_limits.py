@@ -17,6 +17,7 @@ from mpi4py import MPI
 
 from parsph.physics import closures, limits
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.simulation.solver import Simulation
 
 RHO_S, GA, GB = 2000.0, 8.76, -1.183
@@ -30,7 +31,7 @@ def patch(theta, form="paper", k=1.0, kernel="cubic_spline", h_over_dx=1.25):
            "numerics": {"Nx": N, "h_over_dx": h_over_dx, "dt": 1e-12, "pressure_form": form, "kernel": kernel,
                         "allow_unstable_dt": True},
            "output": {"t_end": 1e-11}}
-    return Simulation(config.build(raw, config.dumps(raw)), MPI.COMM_SELF)
+    return Simulation(config.build(RunFile(raw)), MPI.COMM_SELF)
 
 
 def jacobian(sim):

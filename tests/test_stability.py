@@ -27,6 +27,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.errors import ConfigError, GuardError
 from parsph.output import output_files, read_profile
 from parsph.sph.particles import FLUID
@@ -71,9 +72,7 @@ def make_cfg(theta0=0.35, k=1.0, nx=50, dt="auto", steps=STEPS, times=(), extra=
     raw["numerics"].pop("h")
     h = 1.25 * L / nx
     def build(t_end):
-        r = {s: dict(v) for s, v in raw.items()}
-        config.apply_overrides(r, over + [f"output.t_end={t_end!r}"])
-        return config.build(r, config.dumps(r))
+        return config.build(RunFile(raw).override(over + [f"output.t_end={t_end!r}"]))
     over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}", "numerics.h_over_dx=1.25",
             f"domain.Ly={8 * h!r}", f"numerics.dt={dt!r}" if dt != "auto" else 'numerics.dt="auto"',
             f"output.times={list(times)!r}", "output.progress_interval=0", "checks.every=1", *extra]

@@ -1,7 +1,8 @@
 """A run: the validated run file and every quantity derived from it, computed once (:class:`RunConfig`).
 
-A run file has the sections of :data:`parsph.setup.schema.SCHEMA`; ``parsph run
---set section.key=value`` overrides any key (:mod:`parsph.setup.runfile`). Every
+A run file (:class:`parsph.setup.runfile.RunFile`) has the sections of
+:data:`parsph.setup.schema.SCHEMA`; ``parsph run --set section.key=value``
+overrides any key. Every
 problem raises :class:`ConfigError` naming the key. The full key list with
 units is in docs/running.md ("Run-file keys"). :func:`build` derives the
 lattice, checks the kernel's support against it, and chooses the time step
@@ -9,12 +10,11 @@ against the run's stability limits (:mod:`parsph.physics.limits`).
 """
 from dataclasses import dataclass, field, replace
 import math
-import tomllib
 
 from parsph.physics.kernels import get_kernel
 from parsph.physics import limits as stability
 from parsph.errors import ConfigError
-from .runfile import apply_overrides, dumps
+from .runfile import RunFile
 from .scenes import get_scene
 from .schema import validate
 
@@ -212,9 +212,10 @@ def _time_step(v, cfg):
     return dict(dt=dt, dt_auto=auto, nsteps=nsteps, output_times=times, limits=limits)
 
 
-def build(raw, text):
-    """Validate a raw run-file dict and derive the run's quantities."""
-    v = validate(raw)
+def build(run_file):
+    """Validate a :class:`RunFile` and derive the run's quantities."""
+    text = run_file.dump()
+    v = validate(run_file.tables())
     mat, walls, num, out, terms = v["material"], v["walls"], v["numerics"], v["output"], v["terms"]
     lat, hkey = _lattice(v)
     dim = lat["dim"]
@@ -235,24 +236,9 @@ def build(raw, text):
 
 def load(path, overrides=()):
     """Read, override and validate a run file."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise ConfigError("<file>", f"cannot read {path}: {e.strerror}") from None
-    try:
-        raw = tomllib.loads(data.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ConfigError("<file>", f"{path} is not valid TOML: {e}") from None
-    apply_overrides(raw, overrides)
-    return build(raw, dumps(raw))
+    return build(RunFile.read(path).override(overrides))
 
 
 def loads(text, overrides=()):
     """Validate a run file given as a TOML string."""
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError("<file>", f"not valid TOML: {e}") from None
-    apply_overrides(raw, overrides)
-    return build(raw, dumps(raw))
+    return build(RunFile.parse(text).override(overrides))

@@ -6,7 +6,7 @@
 
 Level l of a family is the run file with N_x R^l particles across (h / dx
 fixed; dt ~ dx^2 from the coarsest level's, or each level at its own limit
-with --dt-scaling limit: ``level_raw``), written as an ordinary run file
+with --dt-scaling limit: ``level_run_file``), written as an ordinary run file
 DIR/<family>/nx<N_x>/<name>.toml and run by the same code as ``parsph run``,
 on the same communicator, one level after another, without particle
 snapshots. Two more runs complete a study: the coarsest level with the
@@ -25,10 +25,11 @@ import json
 import os
 import sys
 import time
-import tomllib
 
 import numpy as np
 
+from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from . import estimates
 from .converge_report import analyse, jsonable, plot, print_report
 from parsph.cli.run import Signals, fits_in_memory, run_reporting
@@ -56,24 +57,20 @@ class _TimedOutput:
         return self.out(sim, **kw)
 
 
-def _family_raw(raw, family):
-    """The raw run-file dict with a family's numerics (dt "auto" for a preset family)."""
-    raw = {s: dict(v) if isinstance(v, dict) else v for s, v in raw.items()}
+def family_run_file(run_file, family):
+    """The run file with a family's numerics (dt "auto" for a preset family)."""
     if family == "given":
-        return raw
+        return run_file
     f = FAMILIES[family]
-    num = raw.setdefault("numerics", {})
-    num.pop("h", None)
-    num.update(kernel=f["kernel"], h_over_dx=f["h_over_dx"], dt="auto")
-    raw.setdefault("walls", {})["beta_max"] = f["beta_max"]
-    return raw
+    return (run_file.drop("numerics", "h").set("numerics", kernel=f["kernel"], h_over_dx=f["h_over_dx"], dt="auto")
+            .set("walls", beta_max=f["beta_max"]))
 
 
 DT_SCALINGS = ("limit", "dx2")
 
 
-def level_raw(raw, nx, dt_scaling="limit"):
-    """Level N_x of a raw run file: h / dx kept, dt by ``dt_scaling``.
+def level_run_file(run_file, nx, dt_scaling="limit"):
+    """Level N_x of a run file: h / dx kept, dt by ``dt_scaling``.
 
     ``"limit"``: ``dt = "auto"`` kept (each level at its own stability limit, times the
     run file's dt_safety), a fixed dt scaled with the limit (its margin kept). Cheapest,
@@ -84,46 +81,26 @@ def level_raw(raw, nx, dt_scaling="limit"):
     dt_l at theta_0, so it still follows the state), so the time error falls as dx^2 at
     every level; every limit shrinks at most as dx^2, so dt_l stays within them.
     """
-    from parsph.setup import config
     if dt_scaling not in DT_SCALINGS:
         raise ValueError(f"dt_scaling {dt_scaling!r}: one of {DT_SCALINGS}")
-    base = config.build(raw, config.dumps(raw))
-    out = {s: dict(v) if isinstance(v, dict) else v for s, v in raw.items()}
-    num = out["numerics"]
-    num["Nx"] = int(nx)
-    if num.get("h") is not None:
-        num["h"] = base.h * base.Nx / nx
-    probe = {s: dict(v) if isinstance(v, dict) else v for s, v in out.items()}
-    probe["numerics"]["dt"] = "auto"
-    lim = min(config.build(probe, config.dumps(probe)).limits.values())
+    base = config.build(run_file)
+    out = run_file.set("numerics", Nx=int(nx))
+    if out.get("numerics", "h") is not None:
+        out = out.set("numerics", h=base.h * base.Nx / nx)
+    lim = min(config.build(out.set("numerics", dt="auto")).limits.values())
     if dt_scaling == "dx2":
         dt = float(base.dt) * (base.Nx / nx) ** 2
-        if num.get("dt") == "auto":
-            num["dt_safety"] = min(1.0, dt / lim)
+        if out.get("numerics", "dt") == "auto":
+            out = out.set("numerics", dt_safety=min(1.0, dt / lim))
         else:
-            num["dt"] = dt
-    elif num.get("dt") != "auto":
-        num["dt"] = float(base.dt) * lim / min(base.limits.values())
-    out.setdefault("output", {})["snapshots"] = False
-    return out
-
-
-def _read_raw(path, sets):
-    from parsph.setup import config
-    try:
-        with open(path, "rb") as f:
-            raw = tomllib.loads(f.read().decode("utf-8"))
-    except OSError as e:
-        raise UsageError(f"cannot read {path}: {e.strerror}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise UsageError(f"{path} is not valid TOML: {e}") from None
-    config.apply_overrides(raw, sets or ())
-    return raw
+            out = out.set("numerics", dt=dt)
+    elif out.get("numerics", "dt") != "auto":
+        out = out.set("numerics", dt=float(base.dt) * lim / min(base.limits.values()))
+    return out.set("output", snapshots=False)
 
 
 def _plan(args):
-    """[(family, [(N_x, raw), ...])], validated on every rank."""
-    from parsph.setup import config
+    """[(family, [(N_x, run file), ...])], validated on every rank."""
     if args.levels < 2:
         raise UsageError(f"--levels {args.levels}: need at least 2 (3 for an order and error estimates)")
     if args.ratio < 2:
@@ -134,18 +111,18 @@ def _plan(args):
     for f in families:
         if f != "given" and f not in FAMILIES:
             raise UsageError(f"--family {f}: unknown (known: given, {', '.join(FAMILIES)})")
-    raw = _read_raw(args.config, args.set)
+    base = RunFile.read(args.config).override(args.set or ())
     plan = []
     for fam in dict.fromkeys(families):
-        fraw = _family_raw(raw, fam)
+        frf = family_run_file(base, fam)
         try:
             # the family's base level validated first: its errors name the run file's keys
-            nx0 = config.build(fraw, config.dumps(fraw)).Nx
+            nx0 = config.build(frf).Nx
             scaling = getattr(args, "dt_scaling", None) or "dx2"
-            levels = [(nx0 * args.ratio ** l, level_raw(fraw, nx0 * args.ratio ** l, scaling))
+            levels = [(nx0 * args.ratio ** l, level_run_file(frf, nx0 * args.ratio ** l, scaling))
                       for l in range(args.levels)]
             for nx, lr in levels:
-                cfg = config.build(lr, config.dumps(lr))
+                cfg = config.build(lr)
         except ConfigError as e:
             raise UsageError(str(e) if fam == "given" else f"family {fam}: {e}") from None
         if len(cfg.output_times) == 0:
@@ -168,26 +145,21 @@ def cmd_converge(args):
         signals.release()
 
 
-def _warm_up(comm, raw):
+def _warm_up(comm, run_file):
     """A few steps of a level, untimed, so that loading numba's compiled code is not counted as cost."""
-    from parsph.setup import config
     from parsph.simulation.solver import Simulation
-    w = {s: dict(v) if isinstance(v, dict) else v for s, v in raw.items()}
-    cfg = config.build(w, config.dumps(w))
-    w["output"]["t_end"] = 2.5 * cfg.dt
-    w["output"]["times"] = []
-    Simulation(config.build(w, config.dumps(w)), comm).run()
+    cfg = config.build(run_file)
+    Simulation(config.build(run_file.set("output", t_end=2.5 * cfg.dt, times=[])), comm).run()
 
 
 def _converge(comm, args, signals):
     """The study: check every family's finest level fits, run each family, report."""
-    from parsph.setup import config
     root = comm.rank == 0
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = args.out or os.path.join("out", stem + "_converge")
     plan = agree(comm, lambda: _plan(args))
     for fam, levels in plan:  # the finest level of each family must fit, before any level runs
-        agree(comm, lambda: fits_in_memory(comm, config.build(levels[-1][1], config.dumps(levels[-1][1]))))
+        agree(comm, lambda: fits_in_memory(comm, config.build(levels[-1][1])))
 
     def say(msg):
         if root:
@@ -214,28 +186,26 @@ def _family(comm, args, signals, say, stem, out_dir, fam, levels, scaling):
             return rec
         rec["level"] = l
         runs.append(rec)
-    nx0, raw0 = levels[0]
-    b = agree(comm, lambda: bias_of(raw0))
+    nx0, rf0 = levels[0]
+    b = agree(comm, lambda: bias_of(rf0))
     bias_rec = None
     if b is not None and abs(b) > BIAS_MIN:
         # the coarsest level again with k / (1 + b): its difference from the coarsest level is the
         # effect of the kernel's viscosity bias, which every level shares and no difference shows
-        braw = bias_raw(raw0, b)
-        bias_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx0, braw,
+        bias_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx0, bias_run_file(rf0, b),
                           f"bias run (k / (1 + b), b = {b:+.2e})", os.path.join(out_dir, fam, f"nx{nx0}_bias"))
         if not isinstance(bias_rec, dict):
             return bias_rec
         bias_rec["bias"] = b
     time_rec = None
-    nxf, rawf = levels[-1]
-    s0 = raw0["numerics"].get("dt_safety", 1.0)
-    if (args.target is not None and scaling == "dx2" and rawf["numerics"].get("dt") == "auto"
-            and rawf["numerics"]["dt_safety"] < s0 * (1 - 1e-6)):
+    nxf, rff = levels[-1]
+    s0 = rf0.get("numerics", "dt_safety", 1.0)
+    if (args.target is not None and scaling == "dx2" and rff.get("numerics", "dt") == "auto"
+            and rff.get("numerics", "dt_safety") < s0 * (1 - 1e-6)):
         # the finest level again at the base level's margin below its own limit: the difference is the
         # time error's share, which --target uses to trade a larger dt against a finer N_x
-        traw = {s: dict(v) if isinstance(v, dict) else v for s, v in rawf.items()}
-        traw["numerics"]["dt_safety"] = s0
-        time_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nxf, traw,
+        time_rec = _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nxf,
+                          rff.set("numerics", dt_safety=s0),
                           f"time-step run (dt_safety {s0:g})", os.path.join(out_dir, fam, f"nx{nxf}_dtlimit"))
         if not isinstance(time_rec, dict):
             return time_rec
@@ -263,10 +233,9 @@ def _report(comm, args, results, out_dir, scaling):
 def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, what, ldir):
     """Run one level (or reuse it): its record, or an exit code."""
     from argparse import Namespace
-    from parsph.setup import config
     root = comm.rank == 0
     # the header names no level index, so a study from another base N_x can reuse this level
-    text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + config.dumps(lr)
+    text = f"# parsph converge: {args.config}, family {fam}, N_x = {nx}\n" + lr.dump()
     rec = comm.bcast(_reusable(ldir, text) if root else None, root=0)
     if rec is not None:
         say(f"parsph converge: family {fam}, {what}: N_x = {nx}, reusing {ldir}")
@@ -318,22 +287,19 @@ def _level(comm, args, signals, say, stem, out_dir, fam, levels, warm, nx, lr, w
 BIAS_MIN = 1e-6  # |b| below this: no bias run (its effect is below any error measured here)
 
 
-def bias_of(raw):
+def bias_of(run_file):
     """b in nu_eff = (1 + b) nu for a run file's kernel, h/dx and lattice spacings (None for a scene
     without viscosity)."""
-    from parsph.setup import config
-    cfg = config.build(raw, config.dumps(raw))
+    cfg = config.build(run_file)
     if cfg.k == 0 or not cfg.viscosity:
         return None
     return estimates.kernel_bias(cfg.kernel, cfg.h / cfg.dx, cfg.dim, dy=cfg.dy / cfg.dx, dz=cfg.dz / cfg.dx)
 
 
-def bias_raw(raw, b):
+def bias_run_file(run_file, b):
     """The run file with the viscosity k / (1 + b): on a lattice whose operator gives (1 + b) k, the
     flow of viscosity k."""
-    out = {s: dict(v) if isinstance(v, dict) else v for s, v in raw.items()}
-    out["material"]["k"] = float(out["material"]["k"]) / (1.0 + b)
-    return out
+    return run_file.set("material", k=float(run_file.get("material", "k")) / (1.0 + b))
 
 
 def _reusable(ldir, text):

@@ -2,9 +2,10 @@
 time from the levels' outputs, the --target choice, the printed report, converge.json and the PNG.
 """
 import math
-import tomllib
 
 import numpy as np
+
+from parsph.setup.runfile import RunFile
 
 from . import estimates
 
@@ -106,10 +107,10 @@ def _target_setting(runs, nxs, times, target, dts, dt_scaling):
         cost, a = estimates.cost_at(need, nxs, costs)
         setting.update(cpu_s=cost, cost_exponent=a, to_time=times[-1]["t"])
         if dt_scaling == "dx2":  # the errors were measured with dt ~ dx^2: the setting needs that dt
-            from .converge import level_raw
-            lr = level_raw(tomllib.loads(runs[0]["run_file"]), need, "dx2")["numerics"]
-            setting["set"] = (f"numerics.dt_safety={lr['dt_safety']:.4g}" if lr["dt"] == "auto"
-                              else f"numerics.dt={lr['dt']:.4g}")
+            from .converge import level_run_file
+            lr = level_run_file(RunFile.parse(runs[0]["run_file"]), need, "dx2")
+            setting["set"] = (f"numerics.dt_safety={lr.get('numerics', 'dt_safety'):.4g}"
+                              if lr.get("numerics", "dt") == "auto" else f"numerics.dt={lr.get('numerics', 'dt'):.4g}")
     return setting
 
 
