@@ -155,8 +155,9 @@ def physics(theta0, Re, nx, raw=None, integrator="paper"):
     k = abs(V_w) * L * rho_s / (Re * theta0)
     dx = L / nx
     h = H_OVER_DX * dx
-    lim = limits.limits(h, (dx, dx), theta0, rho_s, k, 8.76, -1.183, abs(V_w), 0.0, integrator=integrator,
-                        beta_max=raw.get("walls", {}).get("beta_max", 1.5))
+    lim = limits.limits(theta0, abs(V_w), 0.0, limits.Material(rho_s, k, 8.76, -1.183),
+                        limits.Lattice(h, (dx, dx), beta_max=raw.get("walls", {}).get("beta_max", 1.5)),
+                        integrator=integrator)
     term = min(lim, key=lim.get)
     c2 = limits.sound_speed(theta0, rho_s, 8.76, -1.183, "paper") ** 2
     return k, h, lim, term, 2.0 * k * theta0 / rho_s / c2
