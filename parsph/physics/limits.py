@@ -59,6 +59,7 @@ import numpy as np
 
 from . import closures
 from .kernels import get_kernel
+from .lattice_sums import lattice_points
 
 FORMS = ("paper", "consistent")
 NKAPPA = 25        # wave vectors per axis of the quarter Brillouin zone
@@ -138,8 +139,7 @@ def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
     kern = get_kernel(kernel, dim)
     norm = kern.norm(1.0, dim)
     reach = kern.support
-    axes = [np.arange(-int(reach / s) - 1, int(reach / s) + 2) * s for s in spacing]
-    R = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+    R = lattice_points(spacing, reach) * np.asarray(spacing, dtype=float)
     r = np.sqrt((R * R).sum(axis=1))
     S = sum(kern.w(float(x), 1.0, norm) for x in r)
     R, r = R[(r > 0) & (r < reach)], r[(r > 0) & (r < reach)]
@@ -205,8 +205,7 @@ def wall_gamma_max(kernel, dim, spacing, beta_max, nrows=12, nkappa=NKAPPA):
     cols = np.arange(-nw, nrows + nw)
     xs = (cols + 0.5) * sx
     Lx = nrows * sx
-    axes = [np.arange(-int(kern.support / s) - 1, int(kern.support / s) + 2) * s for s in rest]
-    off = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)    # [noff, dim-1]
+    off = lattice_points(rest, kern.support) * np.asarray(rest, dtype=float)            # [noff, dim-1]
     grids = np.meshgrid(*[np.linspace(0.0, math.pi / s, nkappa) for s in rest], indexing="ij")
     kappa = np.stack([g.ravel() for g in grids], axis=1)
     cosk = np.cos(kappa @ off.T)                                                       # [nk, noff]

@@ -31,7 +31,8 @@ from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
 from parsph.errors import Interrupted
 from .guards import run_checks
-from parsph.physics.kernels import get_kernel, lattice_sum
+from parsph.physics.kernels import get_kernel
+from parsph.physics.lattice_sums import lattice_sum
 from parsph.sph.neighbours import cell_coords, grid_for
 from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, state_maxima
