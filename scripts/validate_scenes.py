@@ -31,7 +31,6 @@ from parsph.setup import config
 from parsph.physics.analytic import settling_equilibrium
 from parsph.output import output_files, read_profile, read_snapshot
 from parsph.sph.particles import FLUID
-from parsph.setup.scenes import error_scale
 from parsph.simulation.solver import Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -104,11 +103,11 @@ def scene_row(name, a):
         cfg = config.loads(at["run_file"])
         rows = []
         for t, f, fe in zip(p["time"], p["vy"], p["vy_exact"]):
-            a = error_scale(cfg, t)
+            a = cfg.error_scale(t)
             ratio = float(np.dot(f, fe) / np.dot(fe, fe))  # A_sim / A_ref
-            rate = math.log(ratio * a / error_scale(cfg, 0.0)) / math.log(a / error_scale(cfg, 0.0)) - 1.0
+            rate = math.log(ratio * a / cfg.error_scale(0.0)) / math.log(a / cfg.error_scale(0.0)) - 1.0
             rows.append(f"t = {t:g} s: {np.nanmax(np.abs(f - fe)) / a:.2e} of the amplitude left "
-                        f"({a / error_scale(cfg, 0.0):.1e} U), decay rate {rate:+.2%}")
+                        f"({a / cfg.error_scale(0.0):.1e} U), decay rate {rate:+.2%}")
         msg = "; ".join(rows)
     else:
         k = int(np.nanargmax(p["err_max"]))

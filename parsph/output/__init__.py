@@ -18,7 +18,8 @@ is a restart point. In a file:
     /profile/count         (Nx,)          fluid particles per bin
     /profile/vy_exact, theta_exact (Nx,)  the scene's reference (NaN where it has none)
     /profile attrs         err_max, err_rms: |f - f_exact| / scale of the scene's error field
-                           (root attrs error_field, error_scale), max and RMS over bins
+                           (root attrs error_field, error_scale: the scale at this time, for a
+                           decaying flow the amplitude left), max and RMS over bins
     /particles/{id, kind, mass, position, velocity, theta}   (N,), (N,), (N,), (N, dim), (N, dim), (N,)
                            mass in kg/m in 2-D (per metre of z), kg in 3-D (MASS_UNITS)
     /particles/velocity_xyz (N, 3) f4      2-D only: (v_x, v_y, 0) for ParaView's glyphs

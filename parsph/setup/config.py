@@ -94,6 +94,14 @@ class RunConfig:
         """The scene's velocity scale [m/s]: errors are normalised by it."""
         return self.scene.velocity_scale(self)
 
+    def error_scale(self, t):
+        """What errors of the scene's error field are relative to at time t [m/s or 1]: the amplitude left
+        of a decaying flow (the scene's current_scale), else the fixed scale (the velocity scale, or
+        theta_0 for theta). The profile, the output files and ``parsph check`` all take it from here."""
+        if self.scene.current_scale is not None:
+            return float(self.scene.current_scale(self, t))
+        return self.velocity_scale if self.scene.error_field == "vy" else self.theta0
+
     @property
     def reynolds(self):
         return self.velocity_scale * self.L / self.nu if self.nu > 0 else math.inf

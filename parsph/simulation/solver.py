@@ -230,7 +230,7 @@ class Simulation:
 
         Returns a dict: x, vy, theta, count, the scene's reference profiles
         (vy_exact, theta_exact; NaN where it has none) and (err_max, err_rms)
-        of its error field, normalised by V_w (velocity) or theta_0 (theta).
+        of its error field, relative to ``cfg.error_scale(t)``.
         """
         ps, cfg = self.ps, self.cfg
         bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self.period_x,
@@ -244,7 +244,7 @@ class Simulation:
         for key in ("vy", "theta"):
             out[key + "_exact"] = ref.get(key, np.full(self.nbins, np.nan))
         field = self.scene.error_field
-        scale = cfg.velocity_scale if field == "vy" else cfg.theta0
+        scale = cfg.error_scale(self.t)
         out["err"] = errors(out[field], out[field + "_exact"], scale) if field in ref else (math.nan, math.nan)
         return out
 

@@ -51,11 +51,10 @@ def _family_report(item, ratio, target, dt_scaling):
 def _time_row(cfg, i, t, profs, bprof, tprof, dts, runs, ratio):
     """Output time i: the levels on the coarsest bins, the estimate, the true error where there is a
     reference, and the time-step run's effect."""
-    from parsph.setup.scenes import error_scale
     field = cfg.scene.error_field
     period = None if cfg.scene.walls else cfg.L
     xc = profs[0]["x"]
-    scale = error_scale(cfg, t)
+    scale = cfg.error_scale(t)
     on_coarse = [profs[0][field][i]] + [estimates.to_coarse(p["x"], p[field][i], xc, period)
                                         for p in profs[1:]]
     bias = None if bprof is None else np.asarray(bprof[field][i]) - np.asarray(profs[0][field][i])
