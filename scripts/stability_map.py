@@ -102,7 +102,7 @@ from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.physics import limits  # noqa: E402
 from parsph.physics import analytic  # noqa: E402
 from parsph.setup.scenes import settling as settling_scene  # noqa: E402
-from parsph.physics.closures import modulus  # noqa: E402
+from parsph.physics.closures import G_A, G_B, modulus  # noqa: E402
 from parsph.sph.particles import FLUID  # noqa: E402
 from parsph.errors import GuardError  # noqa: E402
 from parsph.simulation.solver import Simulation  # noqa: E402
@@ -155,11 +155,11 @@ def physics(theta0, Re, nx, raw=None, integrator="paper"):
     k = abs(V_w) * L * rho_s / (Re * theta0)
     dx = L / nx
     h = H_OVER_DX * dx
-    lim = limits.limits(theta0, abs(V_w), 0.0, limits.Material(rho_s, k, 8.76, -1.183),
+    lim = limits.limits(theta0, abs(V_w), 0.0, limits.Material(rho_s, k, G_A, G_B),
                         limits.Lattice(h, (dx, dx), beta_max=raw.get("walls", {}).get("beta_max", 1.5)),
                         integrator=integrator)
     term = min(lim, key=lim.get)
-    c2 = limits.sound_speed(theta0, rho_s, 8.76, -1.183, "paper") ** 2
+    c2 = limits.sound_speed(theta0, rho_s, G_A, G_B, "paper") ** 2
     return k, h, lim, term, 2.0 * k * theta0 / rho_s / c2
 
 

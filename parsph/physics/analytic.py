@@ -11,7 +11,7 @@ as t -> 0 (about 150 terms at t = 1e-4 s for Table 1, 46,000 at 1e-9 s).
 """
 import math
 
-from .closures import modulus
+from .closures import G_A, G_B, modulus
 
 import numpy as np
 
@@ -77,7 +77,7 @@ def poiseuille_velocity(x, t, nu, L, F, tol=1e-17):
         n += 2
 
 
-def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=4000, form="closure"):
+def settling_equilibrium(x, theta0, L, rho_s, g, G_a=G_A, G_b=G_B, steps=4000, form="closure"):
     """Volume fraction of a granular column at rest between a floor (x = 0) and a lid (x = L).
 
     Hydrostatic balance with grad p_s = G(theta) grad theta and gravity g (> 0)

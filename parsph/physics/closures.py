@@ -15,6 +15,7 @@ import numpy as np
 from numba import njit
 
 LN10 = math.log(10.0)
+G_A, G_B = 8.76, -1.183  # G = 10^(G_A theta + G_B) Pa (Jayaswal 1991; PHYSICS.md)
 
 
 @njit(cache=True)
@@ -29,7 +30,7 @@ def half_modulus(theta, a):
     return math.exp(0.5 * a * LN10 * theta)
 
 
-def modulus(theta, a=8.76, b=-1.183):
+def modulus(theta, a=G_A, b=G_B):
     """G(theta) [Pa], for a number or an array; the one definition of G (numba code calls :func:`modulus_unchecked`).
 
     Raises OverflowError where G does not fit a float (as Python's own power does)."""

@@ -8,6 +8,7 @@ import math
 
 from parsph.errors import ConfigError
 from parsph.sph.integrators import INTEGRATORS
+from parsph.physics.closures import G_A, G_B
 from parsph.physics.kernels import KERNEL_NAMES
 from .scenes import SCENE_NAMES
 
@@ -45,8 +46,8 @@ SCHEMA = {
         "rho_s": Key("float", REQUIRED, positive=True, doc="solid material density [kg/m^3]"),
         "theta0": Key("float", REQUIRED, positive=True, hi=1.0, doc="initial volume fraction"),
         "k": Key("float", REQUIRED, nonnegative=True, doc="viscosity coefficient, mu_s = k theta [Pa s]"),
-        "G_a": Key("float", 8.76, doc="G = 10^(G_a theta + G_b) [Pa]"),
-        "G_b": Key("float", -1.183, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "G_a": Key("float", G_A, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "G_b": Key("float", G_B, doc="G = 10^(G_a theta + G_b) [Pa]"),
     },
     "walls": {
         "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
