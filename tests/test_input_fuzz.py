@@ -15,7 +15,7 @@ Properties:
   exception (OverflowError, ZeroDivisionError, TypeError, ...) is a bug.
   A wrong type, a non-finite or out-of-range value, a missing required key
   or an unknown key must name exactly that key.
-* The memory check (``parsph.cli.run.fits_in_memory``) with a stubbed memory figure:
+* The memory check (``parsph.simulation.case.fits_in_memory``) with a stubbed memory figure:
   random large Nx, Ly, Lz and h / dx in 2-D and 3-D on 1 to 4 nodes is
   refused (ConfigError on ``numerics.Nx`` with the particle count and the
   estimate in GB) exactly when the estimate exceeds 80% of the memory.
@@ -753,7 +753,7 @@ def test_cli_property_two_ranks(case, data):
 # ---- the memory check, with a stubbed memory figure ------------------------------------------------
 
 class _StubComm:
-    """Enough of a communicator for run.fits_in_memory: ``allgather`` reports the stubbed
+    """Enough of a communicator for case.fits_in_memory: ``allgather`` reports the stubbed
     memory of each of ``hosts`` nodes (several ranks of one node count once)."""
 
     def __init__(self, mem, hosts, ranks):
@@ -775,8 +775,7 @@ def test_memory_check_for_huge_particle_counts(data):
     """Random large Nx, Ly and Lz in 2-D and 3-D against a stubbed memory figure: refused
     (ConfigError on numerics.Nx with the estimate in GB) exactly when the particles need more
     than 80% of the nodes' memory, accepted otherwise."""
-    import mpi4py
-    from parsph.cli import run
+    from parsph.simulation import case
     raw = base()
     dim = data.draw(st.sampled_from([2, 3]))
     num = raw["numerics"]
@@ -798,11 +797,10 @@ def test_memory_check_for_huge_particle_counts(data):
     mem = int(need * 10 ** data.draw(st.floats(-3.0, 3.0)))
     hosts = data.draw(st.integers(1, 4))
     comm = _StubComm(mem, hosts, hosts * data.draw(st.integers(1, 8)))
-    with pytest.MonkeyPatch.context() as mp:  # no MPI_Init in the test process
-        mp.setitem(sys.modules, "mpi4py.MPI", _StubMPI)
-        mp.setattr(mpi4py, "MPI", _StubMPI, raising=False)
+    with pytest.MonkeyPatch.context() as mp:  # the stubbed nodes' names
+        mp.setattr(case, "MPI", _StubMPI)
         try:
-            run.fits_in_memory(comm, cfg)
+            case.fits_in_memory(comm, cfg)
         except ConfigError as e:
             COUNTS["memory check (stubbed memory), refused"] += 1
             assert need > 0.8 * mem * hosts, f"refused: {need:.3g} B of {mem * hosts:.3g} B: {e}"
