@@ -18,7 +18,6 @@ import platform
 import resource
 import sys
 import time
-import tomllib
 
 import numpy as np
 from mpi4py import MPI
@@ -27,8 +26,7 @@ from numba import njit
 
 from numba.core.registry import CPUDispatcher
 
-from parsph.setup import config
-from parsph.setup.runfile import RunFile
+from parsph.studies import cases
 from parsph.parallel import slab_ring
 from parsph.sph import equations, integrators, neighbours, particles, profiles, rates
 from parsph.simulation import solver
@@ -38,10 +36,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def make_config(nx, extra=()):
-    raw = tomllib.loads(open(os.path.join(ROOT, "run", "couette_paper.toml")).read())
-    del raw["numerics"]["h"]
-    return config.build(RunFile(raw).override([f"numerics.Nx={nx}", "numerics.h_over_dx=1.25", 'numerics.dt="auto"',
-                                                "output.times=[]", "output.t_end=1.0", *extra]))
+    return cases.couette(nx, overrides=["output.t_end=1.0", *extra])
 
 
 class NumbaClock:

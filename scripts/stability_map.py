@@ -84,7 +84,6 @@ import math
 import os
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -100,21 +99,21 @@ from mpi4py import MPI  # noqa: E402
 from parsph.setup import config  # noqa: E402
 from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.physics import limits  # noqa: E402
-from parsph.physics import analytic  # noqa: E402
-from parsph.setup.scenes import settling as settling_scene  # noqa: E402
+from parsph.physics import table1  # noqa: E402
+from parsph.setup.schema import SCHEMA  # noqa: E402
+from parsph.studies import cases  # noqa: E402
 from parsph.physics.closures import G_A, G_B, modulus  # noqa: E402
 from parsph.sph.particles import FLUID  # noqa: E402
 from parsph.errors import GuardError  # noqa: E402
 from parsph.simulation.solver import Simulation  # noqa: E402
 
-PAPER = ROOT / "run" / "couette_paper.toml"
 THETAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.6, 0.64, 0.7)
 RES = (1.0, 10.0, 57.0, 400.0, 2000.0)
 MULTS = (0.25, 0.5, 1.0, 1.5, 2.0, 4.0)
 NXS = (10, 50, 200)
 STEPS = 2000
 THETA_FRAC = 0.2       # criterion "theta": largest accepted |theta - theta0| / theta0
-H_OVER_DX = 1.25
+H_OVER_DX = table1.H_OVER_DX
 LY_IN_H = 8            # L_y = 8 h = 10 dx: 10 lattice rows
 CRITERIA = ("nonfinite", "wall", "theta", "energy")
 
@@ -138,25 +137,15 @@ def _commit():
 COMMIT = _commit()
 
 
-def base_raw():
-    with open(PAPER, "rb") as f:
-        raw = tomllib.load(f)
-    raw["numerics"].pop("h", None)
-    raw["numerics"]["h_over_dx"] = H_OVER_DX
-    return raw
-
-
-def physics(theta0, Re, nx, raw=None, integrator="paper"):
+def physics(theta0, Re, nx, integrator="paper"):
     """k, h, the predicted limits of one (theta_0, Re, N_x) (parsph.physics.limits, as config.build takes them:
     the von Neumann limit of the integrator, advection with V_w), the binding term, and 2 nu / c_eff^2."""
-    raw = raw or base_raw()
-    L, rho_s = raw["domain"]["L"], raw["material"]["rho_s"]
-    V_w = raw.get("walls", {}).get("V_w", 1.0)
+    L, rho_s, V_w = table1.L, table1.RHO_S, table1.V_W
     k = abs(V_w) * L * rho_s / (Re * theta0)
     dx = L / nx
     h = H_OVER_DX * dx
     lim = limits.limits(theta0, abs(V_w), 0.0, limits.Material(rho_s, k, G_A, G_B),
-                        limits.Lattice(h, (dx, dx), beta_max=raw.get("walls", {}).get("beta_max", 1.5)),
+                        limits.Lattice(h, (dx, dx), beta_max=SCHEMA["walls"]["beta_max"].default),
                         integrator=integrator)
     term = min(lim, key=lim.get)
     c2 = limits.sound_speed(theta0, rho_s, G_A, G_B, "paper") ** 2
@@ -164,15 +153,12 @@ def physics(theta0, Re, nx, raw=None, integrator="paper"):
 
 
 def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, extra=(), integrator="paper"):
-    raw = base_raw()
-    k, h, lim, term, _ = physics(theta0, Re, nx, raw, integrator)
-    dt = multiple * lim[term]
-    over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}",
-            f"domain.Ly={LY_IN_H * h!r}", f"numerics.dt={dt!r}", "numerics.allow_unstable_dt=true",
-            f"output.t_end={steps * dt!r}", "output.times=[]", "output.progress_interval=0",
-            "checks.every=1", f"checks.theta_change={theta_frac!r}", "checks.energy=true",
-            f'numerics.integrator="{integrator}"', *extra]
-    return config.build(RunFile(raw).override(over))
+    """The column's Couette case (cases.couette: L_y = 8 h) at dt = multiple x the predicted limit for
+    ``steps`` steps, the guard at every step with the map's theta threshold."""
+    k, h, lim, term, _ = physics(theta0, Re, nx, integrator)
+    return cases.couette(nx, h_over_dx=H_OVER_DX, ly_in_h=LY_IN_H, dt=multiple * lim[term], steps=steps, overrides=[
+        f"material.theta0={theta0!r}", f"material.k={k!r}", "numerics.allow_unstable_dt=true", "checks.every=1",
+        f"checks.theta_change={theta_frac!r}", "checks.energy=true", f'numerics.integrator="{integrator}"', *extra])
 
 
 class Recorder:
@@ -780,38 +766,19 @@ def main_midpoint(a):
 
 # ---- the granular column (--scene settling) -------------------------------------------------------
 SETTLING_TOML = ROOT / "run" / "settling.toml"
-_EQ = {}
-
-
-def settling_equilibrium(x, *args, **kw):
-    """analytic.settling_equilibrium, memoised on its exact arguments (x included): each column's
-    runs share the wall positions, and one evaluation takes seconds (RK4 in Python, bisected)."""
-    x = np.asarray(x, dtype=float)
-    key = (x.tobytes(), x.shape, args, tuple(sorted(kw.items())))
-    if key not in _EQ:
-        _EQ[key] = analytic.settling_equilibrium(x, *args, **kw)
-    return _EQ[key].copy()
-
-
-settling_scene.settling_equilibrium = settling_equilibrium   # the scene's walls and reference use it too
 SETTLING = {"theta0": (0.55, 0.6, 0.64, 0.7), "nx": 20, "steps": 2000, "min_steps": 1000}
 SETTLING_FIELDS = FIELDS + ["integrator", "dt_force", "dt_damping", "theta_eq_max", "dt_limit_eq",
                             "limit_term_eq", "ke_bound"]
 
 
-def settling_raw():
-    with open(SETTLING_TOML, "rb") as f:
-        return tomllib.load(f)
-
-
 def settling_limits(theta0, nx, theta=None):
     """The predicted limits of the column at theta (default theta_0): parsph.physics.limits as config.build
     takes them (velocity scale sqrt(g h), |g|, the run file's integrator and pressure form)."""
-    raw = settling_raw()
-    L = raw["domain"]["L"]
-    over = [f"numerics.Nx={nx}", f"material.theta0={theta0!r}", f"domain.Ly={LY_IN_H * raw['numerics']['h_over_dx'] * L / nx!r}",
+    rf = RunFile.read(SETTLING_TOML)
+    L = rf.get("domain", "L")
+    over = [f"numerics.Nx={nx}", f"material.theta0={theta0!r}", f"domain.Ly={LY_IN_H * rf.get('numerics', 'h_over_dx') * L / nx!r}",
             'numerics.dt="auto"']
-    cfg = config.build(RunFile(raw).override(over))
+    cfg = config.build(rf.override(over))
     g = math.sqrt(sum(x * x for x in cfg.g))
     return limits.run_limits(cfg, theta0 if theta is None else theta, cfg.velocity_scale, g)
 
@@ -819,15 +786,15 @@ def settling_limits(theta0, nx, theta=None):
 def settling_config(theta0, nx, multiple, steps=None, extra=()):
     """The column at dt = multiple x the predicted limit, for steps x that limit in time, and for
     at least SETTLING["min_steps"] steps (a time-step instability grows per step)."""
-    raw = settling_raw()
+    rf = RunFile.read(SETTLING_TOML)
     lim = min(settling_limits(theta0, nx).values())
     steps = max(steps or SETTLING["steps"], SETTLING["min_steps"] * multiple)
-    h = raw["numerics"]["h_over_dx"] * raw["domain"]["L"] / nx
+    h = rf.get("numerics", "h_over_dx") * rf.get("domain", "L") / nx
     over = [f"material.theta0={theta0!r}", f"numerics.Nx={nx}", f"domain.Ly={LY_IN_H * h!r}",
             f"numerics.dt={multiple * lim!r}", "numerics.allow_unstable_dt=true",
             f"output.t_end={steps * lim!r}", "output.times=[]", "output.progress_interval=0",
             "checks.every=1", "checks.theta_change=1.0", "checks.energy=true", *extra]
-    return config.build(RunFile(raw).override(over))
+    return config.build(rf.override(over))
 
 
 class SettlingRecorder(Recorder):

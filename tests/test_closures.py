@@ -41,8 +41,12 @@ def test_viscosity():
     assert closures.viscosity(0.5, 2.0) == pytest.approx(1.0, rel=1e-15)
 
 
-def test_paper_derived(paper_cfg):
-    cfg = paper_cfg()
+@pytest.mark.parametrize("source", ["run file", "package"])
+def test_paper_derived(paper_cfg, source):
+    """run/couette_paper.toml and the package's Table 1 (studies.cases.paper_run_file) are the same case."""
+    from parsph.setup import config
+    from parsph.studies import cases
+    cfg = paper_cfg() if source == "run file" else config.build(cases.paper_run_file())
     assert cfg.nu == pytest.approx(1.75e-4, rel=1e-12)
     assert cfg.reynolds == pytest.approx(57.142857, rel=1e-4)
     assert cfg.dx == pytest.approx(2e-4, rel=1e-12)

@@ -27,14 +27,14 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.setup.runfile import RunFile
+from parsph.studies import cases
 from parsph.errors import ConfigError, GuardError
 from parsph.output import output_files, read_profile
 from parsph.sph.particles import FLUID
 from parsph.simulation.guards import CHECKS
 from parsph.simulation.solver import Simulation
 
-from conftest import PAPER_TOML, paper_raw, run_cli
+from conftest import PAPER_TOML, run_cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
@@ -67,17 +67,10 @@ def k_for(Re, theta0):
 
 
 def make_cfg(theta0=0.35, k=1.0, nx=50, dt="auto", steps=STEPS, times=(), extra=()):
-    """The paper case with h = 1.25 dx, L_y = 8 h; t_end = steps * dt (auto: the run's limit at t = 0)."""
-    raw = paper_raw()
-    raw["numerics"].pop("h")
-    h = 1.25 * L / nx
-    def build(t_end):
-        return config.build(RunFile(raw).override(over + [f"output.t_end={t_end!r}"]))
-    over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}", "numerics.h_over_dx=1.25",
-            f"domain.Ly={8 * h!r}", f"numerics.dt={dt!r}" if dt != "auto" else 'numerics.dt="auto"',
-            f"output.times={list(times)!r}", "output.progress_interval=0", "checks.every=1", *extra]
-    dt0 = build(1.0).dt if dt == "auto" else dt   # auto: the run's limit at t = 0
-    return build(steps * dt0)
+    """The paper case with h = 1.25 dx, L_y = 8 h (cases.couette); t_end = steps * dt (auto: the run's limit
+    at t = 0)."""
+    return cases.couette(nx, ly_in_h=8, dt=dt, steps=steps, overrides=[
+        f"material.theta0={theta0!r}", f"material.k={k!r}", f"output.times={list(times)!r}", "checks.every=1", *extra])
 
 
 class Probe(Simulation):
