@@ -33,11 +33,12 @@ class OutputTime:
 
 @dataclass(frozen=True)
 class CaseResult:
-    """What a case did: the simulation at its end, the steps and wall seconds of this call's loop, and
-    each output written."""
+    """What a case did: the simulation at its end, the steps, wall and process CPU seconds (this rank's)
+    of this call's loop, and each output written."""
     sim: Simulation
     steps: int
     wall_s: float
+    cpu_s: float
     outputs: tuple
 
     @property
@@ -85,9 +86,9 @@ def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, pr
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
     say(banner(cfg, sim, comm, state, out_dir, stem))
     out = _Timed(Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first))
-    step0 = sim.step
+    step0, cpu0 = sim.step, time.process_time()
     sim.run(output=out, progress=progress, stop_requested=stop_requested)
-    result = CaseResult(sim, sim.step - step0, sim.wall_time, tuple(out.times))
+    result = CaseResult(sim, sim.step - step0, sim.wall_time, time.process_time() - cpu0, tuple(out.times))
     say(f"done: {result.steps} steps in {result.wall_s:.1f} s ({result.rate:.3g} particle-steps/s; "
         f"neighbour list built {sim.rebuilds} times)")
     return result
