@@ -215,7 +215,7 @@ FREE_CHANGES = {
 
 
 def test_every_physics_key_is_covered():
-    from parsph.setup.config import SCHEMA
+    from parsph.setup.schema import SCHEMA
     physics = {f"{s}.{k}" for s, keys in SCHEMA.items() if s not in ("output", "checks") for k in keys}
     # h_over_dx: the paper file gives h (both at once is an error); allow_unstable_dt changes no trajectory
     untested = physics - set(PHYSICS_CHANGES) - {"numerics.h_over_dx", "numerics.allow_unstable_dt"}
