@@ -76,7 +76,7 @@ def _time_row(cfg, i, t, profs, bprof, tprof, dts, runs, ratio):
         dT = (estimates.to_coarse(pf["x"], tprof[field][i], xc, period)
               - estimates.to_coarse(pf["x"], pf[field][i], xc, period)) / scale
         row["time_effect_max"] = float(np.nanmax(np.abs(dT)))
-        row["_T"] = dT[est._ok] / (dts[1] - dts[0])
+        row["_T"] = dT[est.used] / (dts[1] - dts[0])
     row["_est"] = est
     return row
 
