@@ -24,25 +24,20 @@ import platform
 import resource
 import sys
 import time
-import tomllib
 
 import numpy as np
 from mpi4py import MPI
 import numba
 from numba import njit
 
-from parsph.setup import config
+from parsph.studies import cases
 from parsph.simulation.solver import PHASES, Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def make_config(nx, extra=()):
-    raw = tomllib.loads(open(os.path.join(ROOT, "run", "couette_paper.toml")).read())
-    del raw["numerics"]["h"]
-    config.apply_overrides(raw, [f"numerics.Nx={nx}", "numerics.h_over_dx=1.25", 'numerics.dt="auto"',
-                                 "output.times=[]", "output.t_end=1.0", *extra])
-    return config.build(raw, config.dumps(raw))
+    return cases.couette(nx, overrides=["output.t_end=1.0", *extra])
 
 
 @njit(cache=True)

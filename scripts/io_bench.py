@@ -5,8 +5,8 @@
     .venv/bin/python scripts/io_bench.py report docs/bench/io_*.json      (markdown tables)
 
 throughput (under mpirun, P ranks): each rank builds N/P particles of the
-paper case's layout in its slab (2-D: id, kind, mass, position, velocity,
-theta; synthetic values, no solver; shuffled in memory by default, the worst
+paper case's lattice in its slab (``parsph.setup.scenes.lattice``; 2-D: id, kind,
+mass, position, velocity, theta; synthetic velocities and theta, no solver; shuffled in memory by default, the worst
 case for the writer's y-bin sort) and the real writer (output.Output) writes
 one snapshot, timed from the call to the renamed, fsynced file. Then the file's
 pages are dropped from the page cache (posix_fadvise DONTNEED after the
@@ -42,7 +42,13 @@ from machine import cpu_model  # noqa: E402  (scripts/machine.py)
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 PAPER = os.path.join(ROOT, "run", "couette_paper.toml")
-NX, LAYERS, DY = 50, 3, 2e-4  # the paper lattice: N = Ny (Nx + 2 layers), dy = L / Nx
+
+
+def paper_lattice():
+    """The paper case's run (Table 1): N = N_y (N_x + 2 layers) particles in rows of dy = dx."""
+    from parsph.setup import config
+    from parsph.studies import cases
+    return config.build(cases.paper_run_file())
 
 
 def machine():
@@ -54,8 +60,10 @@ def machine():
 
 def ly_for(n):
     """L_y of the paper lattice with at least n particles (a whole number of rows)."""
-    rows = -(-n // (NX + 2 * LAYERS))
-    return rows * DY, rows * (NX + 2 * LAYERS)
+    cfg = paper_lattice()
+    per_row = cfg.Nx + 2 * cfg.layers
+    rows = -(-n // per_row)
+    return rows * cfg.dx, rows * per_row
 
 
 def evict(path):
@@ -104,30 +112,30 @@ def raw_rates(d, nbytes):
 def throughput(args):
     from mpi4py import MPI
     from parsph.setup import config
+    from parsph.setup.scenes import lattice
+    from parsph.sph.particles import MOVING_WALL
+    from parsph.studies import cases
     from parsph import output
     comm = MPI.COMM_WORLD
     P, rank = comm.size, comm.rank
     Ly, N = ly_for(args.n)
-    cfg = config.load(PAPER, [f"domain.Ly={Ly!r}"])
+    cfg = config.build(cases.paper_run_file().set("domain", Ly=Ly))
     # rank r: the lattice rows of its slab, as the solver would own them
-    rows = N // (NX + 2 * LAYERS)
+    rows = cfg.Ny
     r0, r1 = rank * rows // P, (rank + 1) * rows // P
-    n = (r1 - r0) * (NX + 2 * LAYERS)
+    lo, hi = r0 * cfg.dy, r1 * cfg.dy
+    gid, kind, mass, pos, _ = lattice(cfg, lo, hi, right_wall=MOVING_WALL)
+    n = len(gid)
     rng = np.random.default_rng(rank)
-    gid = np.arange(r0 * (NX + 2 * LAYERS), r1 * (NX + 2 * LAYERS), dtype=np.int64)
-    col = gid % (NX + 2 * LAYERS)
-    pos = np.column_stack([(col - LAYERS + 0.5) * DY, (gid // (NX + 2 * LAYERS) + 0.5) * DY])
-    fields = {"id": gid, "kind": np.where(col < LAYERS, 1, np.where(col >= NX + LAYERS, 2, 0)),
-              "mass": np.full(n, cfg.mass), "position": pos, "velocity": rng.normal(size=(n, 2)),
+    fields = {"id": gid, "kind": kind, "mass": mass, "position": pos, "velocity": rng.normal(size=(n, 2)),
               "theta": rng.uniform(0.3, 0.4, n)}
     if args.order == "shuffled":  # the worst case for the writer's y-bin sort
         perm = rng.permutation(n)
         fields = {k: v[perm] for k, v in fields.items()}
         gid = np.sort(gid)
-    prof = {k: np.zeros(NX) for k in ("x", "vy", "theta", "count", "vy_exact", "theta_exact")}
+    prof = {k: np.zeros(cfg.Nx) for k in ("x", "vy", "theta", "count", "vy_exact", "theta_exact")}
     prof["err"] = (0.0, 0.0)
     d = comm.bcast(tempfile.mkdtemp(prefix="io_bench_", dir=args.dir) if rank == 0 else None)
-    lo, hi = r0 * DY, r1 * DY
     rounds = []
     for k in range(args.repeat):
         out = output.Output(comm, d, f"bench{k}", cfg, N)

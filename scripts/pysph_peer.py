@@ -13,14 +13,12 @@ fluid particle-steps per second from bench.py in the same sitting (docs/performa
 """
 import argparse
 import json
-import os
 import sys
 import tempfile
 import time
 
 
 def run(nx, steps):
-    import numpy as np
     import pysph.examples.couette as ex
     from pysph.base.kernels import CubicSpline
 

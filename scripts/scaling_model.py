@@ -38,10 +38,20 @@ import math
 import numpy as np
 
 from parsph.parallel import slabs
+from parsph.physics.kernels import get_kernel
+from parsph.setup import config
+from parsph.sph.neighbours import grid_for
+from parsph.studies import cases
 
-M = 2            # cell rows per cutoff (neighbours.CELLS_PER_CUTOFF)
-RC = 3.0         # cutoff 2h + skin in lattice steps: h = 1.25 dx, skin 0.4 h
-LAYERS = 3       # wall layers covering 2h = 2.5 dx
+
+def _paper_grid():
+    """(cell rows per cutoff, the cutoff 2h + skin in lattice steps, wall layers) of the paper case."""
+    cfg = config.build(cases.paper_run_file())
+    grid = grid_for(cfg, get_kernel(cfg.kernel, cfg.dim))
+    return grid.m, grid.cutoff / cfg.dx, cfg.layers
+
+
+M, RC, LAYERS = _paper_grid()   # 2, 3.0 (h = 1.25 dx, skin 0.4 h), 3 (covering 2h = 2.5 dx)
 
 
 def lattice_pairs(nx, nz, dim):

@@ -28,11 +28,12 @@ fixed
 (``parsph.physics.limits``, as config.build takes it; ``numerics.allow_unstable_dt = true`` lets the
 multiples above 1 run). The package's guard (``parsph.simulation.guards``) runs every
 step (``checks.every = 1``) with the thresholds below and stops the run; an
-observer (``Simulation.run(observe=...)``, the ``Recorder`` here) records the
-four criteria separately at every step from ``Simulation.particles()``, and a
-guard failure counts for its criterion by its ``GuardResult.code``:
+observer (``Simulation.run(observe=...)``, ``parsph.studies.stability.Recorder``) records the
+four criteria separately at every step from ``Simulation.particles()`` (the guard's own
+criteria, ``parsph.simulation.guards.read``), and a guard failure counts for its
+criterion by its ``GuardResult.code``:
 
-    nonfinite  a fluid particle with a non-finite position, velocity or acceleration
+    nonfinite  a fluid particle with a non-finite position or velocity (the guard: acceleration too)
     wall       a fluid particle beyond a wall plane (x < 0 or x > L)
     theta      max |theta - theta_0| / theta_0 over fluid particles > THETA_FRAC
     energy     fluid kinetic energy > 1/2 M V_w^2 (the maximum principle |v| <= V_w)
@@ -47,7 +48,7 @@ whose header lacks it is appended to without it).
 
 Not every failure is a time-step failure: some come at the same physical time
 whatever dt (the flow itself compacts near the moving plate). ``verdict``
-tells them apart (two failing runs >= 8 % apart in dt, same criterion, same
+(``parsph.studies.stability``, with the bracketing and the resumable CSV) tells them apart (two failing runs >= 8 % apart in dt, same criterion, same
 time within 5 %: ``physical``); ``--long`` confirms each such column with a
 run at half the dt continued to 1.3x that time. Measured limits count
 time-step failures only.
@@ -83,8 +84,6 @@ import csv
 import math
 import os
 import sys
-import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -95,27 +94,25 @@ sys.path.insert(0, str(ROOT))
 # took 31 ms a step with 2 threads on the loaded 2-core machine, 2.4 ms with 1)
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
-from mpi4py import MPI  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
+from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.physics import limits  # noqa: E402
-from parsph.physics import analytic  # noqa: E402
-from parsph.setup.scenes import settling as settling_scene  # noqa: E402
-from parsph.physics.closures import modulus  # noqa: E402
-from parsph.sph.particles import FLUID  # noqa: E402
-from parsph.simulation.guards import GuardError  # noqa: E402
-from parsph.simulation.solver import Simulation  # noqa: E402
+from parsph.physics import table1  # noqa: E402
+from parsph.setup.schema import SCHEMA  # noqa: E402
+from parsph.studies import cases  # noqa: E402
+from parsph.physics.closures import G_A, G_B, modulus  # noqa: E402
+from parsph.studies.stability import (Recorder, Results, append_row, column, dt_bounds, load_rows,  # noqa: E402
+                                     measured_bounds, physical_time, run_and_classify, search, verdict)
 
-PAPER = ROOT / "run" / "couette_paper.toml"
 THETAS = (0.05, 0.1, 0.2, 0.35, 0.5, 0.6, 0.64, 0.7)
 RES = (1.0, 10.0, 57.0, 400.0, 2000.0)
 MULTS = (0.25, 0.5, 1.0, 1.5, 2.0, 4.0)
 NXS = (10, 50, 200)
 STEPS = 2000
 THETA_FRAC = 0.2       # criterion "theta": largest accepted |theta - theta0| / theta0
-H_OVER_DX = 1.25
+H_OVER_DX = table1.H_OVER_DX
 LY_IN_H = 8            # L_y = 8 h = 10 dx: 10 lattice rows
-CRITERIA = ("nonfinite", "wall", "theta", "energy")
 
 FIELDS = ["nx", "theta0", "Re", "k", "multiple", "dt", "dt_limit", "limit_term", "dt_cfl", "dt_viscous",
           "dt_acoustic_damping", "steps_planned", "steps_done", "t_done", "stable", "first_failure",
@@ -137,137 +134,28 @@ def _commit():
 COMMIT = _commit()
 
 
-def base_raw():
-    with open(PAPER, "rb") as f:
-        raw = tomllib.load(f)
-    raw["numerics"].pop("h", None)
-    raw["numerics"]["h_over_dx"] = H_OVER_DX
-    return raw
-
-
-def physics(theta0, Re, nx, raw=None, integrator="paper"):
+def physics(theta0, Re, nx, integrator="paper"):
     """k, h, the predicted limits of one (theta_0, Re, N_x) (parsph.physics.limits, as config.build takes them:
     the von Neumann limit of the integrator, advection with V_w), the binding term, and 2 nu / c_eff^2."""
-    raw = raw or base_raw()
-    L, rho_s = raw["domain"]["L"], raw["material"]["rho_s"]
-    V_w = raw.get("walls", {}).get("V_w", 1.0)
+    L, rho_s, V_w = table1.L, table1.RHO_S, table1.V_W
     k = abs(V_w) * L * rho_s / (Re * theta0)
     dx = L / nx
     h = H_OVER_DX * dx
-    lim = limits.limits(h, (dx, dx), theta0, rho_s, k, 8.76, -1.183, abs(V_w), 0.0, integrator=integrator,
-                        beta_max=raw.get("walls", {}).get("beta_max", 1.5))
+    lim = limits.limits(theta0, abs(V_w), 0.0, limits.Material(rho_s, k, G_A, G_B),
+                        limits.Lattice(h, (dx, dx), beta_max=SCHEMA["walls"]["beta_max"].default),
+                        integrator=integrator)
     term = min(lim, key=lim.get)
-    c2 = limits.sound_speed(theta0, rho_s, 8.76, -1.183, "paper") ** 2
+    c2 = limits.sound_speed(theta0, rho_s, G_A, G_B, "paper") ** 2
     return k, h, lim, term, 2.0 * k * theta0 / rho_s / c2
 
 
 def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, extra=(), integrator="paper"):
-    raw = base_raw()
-    k, h, lim, term, _ = physics(theta0, Re, nx, raw, integrator)
-    dt = multiple * lim[term]
-    over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}",
-            f"domain.Ly={LY_IN_H * h!r}", f"numerics.dt={dt!r}", "numerics.allow_unstable_dt=true",
-            f"output.t_end={steps * dt!r}", "output.times=[]", "output.progress_interval=0",
-            "checks.every=1", f"checks.theta_change={theta_frac!r}", "checks.energy=true",
-            f'numerics.integrator="{integrator}"', *extra]
-    config.apply_overrides(raw, over)
-    return config.build(raw, config.dumps(raw))
-
-
-class Recorder:
-    """Observer of a run (``Simulation.run(observe=...)``): the four criteria, recorded criterion by
-    criterion at every step from the particles the solver exposes, and the largest theta deviation,
-    kinetic-energy and speed ratios seen. It changes nothing; the run's own guard stops it."""
-
-    def __init__(self, cfg, theta_frac):
-        self.cfg = cfg
-        self.theta_frac = theta_frac
-        self.first = {c: -1 for c in CRITERIA}
-        self.max_theta_dev = 0.0
-        self.max_ke_ratio = 0.0
-        self.max_speed_ratio = 0.0
-        # Couette: theta against theta_0, kinetic energy against the wall's 1/2 V_w^2 per unit mass
-        self.ke_bound_per_mass = 0.5 * cfg.V_w ** 2
-        self.speed_scale = abs(cfg.V_w)
-
-    def theta_ref(self, x):
-        """The theta each fluid particle's deviation is measured against, at its x."""
-        return self.cfg.theta0
-
-    def measure(self, p):
-        """(criteria violated now, theta deviation, KE ratio, speed ratio) of the fluid in ``p``
-        (``Simulation.particles()``; the guard's check 1 covers non-finite accelerations)."""
-        fl = p["kind"] == FLUID
-        pos, vel, theta, m = p["position"][fl], p["velocity"][fl], p["theta"][fl], p["mass"][fl]
-        with np.errstate(all="ignore"):
-            nonfinite = not (np.isfinite(pos).all() and np.isfinite(vel).all())
-            wall = bool(((pos[:, 0] < 0.0) | (pos[:, 0] > self.cfg.L)).any())
-            ref = self.theta_ref(pos[:, 0])
-            dev = float(np.nanmax(np.abs(theta - ref) / ref)) if theta.size else 0.0
-            if not np.isfinite(theta).all():
-                dev = math.inf
-            ke = 0.5 * float((m * (vel ** 2).sum(axis=1)).sum())
-            ke_ratio = ke / (self.ke_bound_per_mass * float(m.sum())) if math.isfinite(ke) else math.inf
-            speed = float(np.sqrt((vel ** 2).sum(axis=1)).max()) / self.speed_scale
-            speed = speed if math.isfinite(speed) else math.inf
-        now = {"nonfinite": nonfinite, "wall": wall, "theta": not dev <= self.theta_frac,
-               "energy": not ke_ratio <= 1.0}
-        return now, dev, ke_ratio, speed
-
-    def __call__(self, sim):
-        now, dev, ke_ratio, speed = self.measure(sim.particles())
-        for c in CRITERIA:
-            if now[c] and self.first[c] < 0:
-                self.first[c] = sim.step
-        self.max_theta_dev = max(self.max_theta_dev, dev)
-        self.max_ke_ratio = max(self.max_ke_ratio, ke_ratio)
-        self.max_speed_ratio = max(self.max_speed_ratio, speed)
-        return now, dev, ke_ratio
-
-
-class CriterionFailed(RuntimeError):
-    """A recorder's own criterion stopped the run (the settling column's; the guard does not check them)."""
-
-
-# the package's checks (parsph.simulation.guards.CHECKS, GuardResult.code) by the criterion they measure
-GUARD_NAMES = {1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}
-
-
-def run_and_classify(cfg, rec):
-    """Run ``cfg`` (the solver on MPI.COMM_SELF) to its end, observed by the recorder ``rec``, and
-    classify the outcome by the criteria: the CSV columns shared by the Couette and the column maps.
-
-    A failure of the package's guard (GuardError) is named by its result's code and counts for that
-    criterion at its step (the per-step non-finite flag fires before the observer sees the step)."""
-    sim = Simulation(cfg, MPI.COMM_SELF)
-    guard = crash = message = ""
-    t0 = time.perf_counter()
-    try:
-        with np.errstate(all="ignore"):
-            sim.run(observe=rec)
-    except GuardError as e:
-        message = str(e)
-        guard = GUARD_NAMES.get(e.result.code, "other")
-        if guard in rec.first and rec.first[guard] < 0:
-            rec.first[guard] = e.result.step
-    except CriterionFailed as e:
-        message, guard = str(e), "probe"
-    except Exception as e:  # noqa: BLE001 - anything else is a finding (the guard missed it)
-        crash = type(e).__name__
-        message = f"{type(e).__name__}: {e}"
-    wall_s = time.perf_counter() - t0
-    fired = [c for c in CRITERIA if rec.first[c] >= 0]
-    stable = not fired and not crash and not guard
-    err_max = err_rms = math.nan
-    if stable:
-        err_max, err_rms = sim.profile()["err"]
-    first = min(fired, key=lambda c: (rec.first[c], CRITERIA.index(c))) if fired else (crash or guard)
-    return {"steps_done": sim.step, "t_done": sim.t, "stable": int(stable), "first_failure": first,
-            "fail_step": -1 if stable else sim.step,
-            **{f"{c}_step": rec.first[c] for c in CRITERIA},
-            "max_theta_dev": rec.max_theta_dev, "max_ke_ratio": rec.max_ke_ratio,
-            "max_speed_ratio": rec.max_speed_ratio, "err_max": err_max, "err_rms": err_rms,
-            "guard": guard, "crash": crash, "message": message, "wall_s": round(wall_s, 3)}
+    """The column's Couette case (cases.couette: L_y = 8 h) at dt = multiple x the predicted limit for
+    ``steps`` steps, the guard at every step with the map's theta threshold."""
+    k, h, lim, term, _ = physics(theta0, Re, nx, integrator)
+    return cases.couette(nx, h_over_dx=H_OVER_DX, ly_in_h=LY_IN_H, dt=multiple * lim[term], steps=steps, overrides=[
+        f"material.theta0={theta0!r}", f"material.k={k!r}", "numerics.allow_unstable_dt=true", "checks.every=1",
+        f"checks.theta_change={theta_frac!r}", "checks.energy=true", f'numerics.integrator="{integrator}"', *extra])
 
 
 def run_case(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, source="grid", integrator="paper"):
@@ -295,128 +183,15 @@ def grid(nxs, quick=False):
     return cases
 
 
-def key_of(row):
-    return (int(row["nx"]), round(float(row["theta0"]), 6), round(float(row["Re"]), 6),
-            round(float(row["multiple"]), 9))
+def couette_results(path, integrator="paper"):
+    """The resumable CSV of the Couette runs of one integrator."""
+    return Results(path, lambda t, r, nx, m, source: run_case(t, r, nx, m, source=source, integrator=integrator),
+                   FIELDS)
 
 
-def append_row(path, fields, row):
-    """Append one row to a CSV; a new file gets the header ``fields``, an existing one keeps its own
-    (older CSVs lack later columns, and the file names the integrator)."""
-    header = fields
-    if os.path.exists(path):
-        with open(path, newline="") as f:
-            header = next(csv.reader(f), None) or fields
-    with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, header, extrasaction="ignore")
-        if header is fields:
-            w.writeheader()
-        w.writerow(row)
-
-
-def load_rows(path):
-    if not os.path.exists(path):
-        return []
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
-class Results:
-    """The CSV of one integrator's (or scene's) runs; a run already in it is not repeated."""
-
-    def __init__(self, path, integrator="paper", runner=None, fields=FIELDS):
-        self.path = path
-        self.integrator = integrator
-        self.runner = runner or (lambda t, r, nx, m, source: run_case(t, r, nx, m, source=source,
-                                                                      integrator=self.integrator))
-        self.fields = fields
-        self.rows = load_rows(path)
-        self.done = {key_of(r): r for r in self.rows}
-
-    def get(self, theta0, Re, nx, multiple, source="grid"):
-        key = (nx, round(theta0, 6), round(Re, 6), round(multiple, 9))
-        if key in self.done:
-            return self.done[key]
-        row = self.runner(theta0, Re, nx, multiple, source)
-        append_row(self.path, self.fields, row)
-        row = {k: str(v) for k, v in row.items()}
-        self.rows.append(row)
-        self.done[key] = row
-        verdict = "stable  " if row["stable"] == "1" else f"UNSTABLE ({row['first_failure']} at step {row['fail_step']})"
-        print(f"Nx={nx:3d} theta0={theta0:<5g} Re={Re:<6g} dt/limit={multiple:<8.4g} {verdict}  "
-              f"[{float(row['wall_s']):.1f} s]", flush=True)
-        return row
-
-
-# ---- verdicts: a time-step instability, or a failure at a fixed physical time ----------------------
-def column(rows, nx, theta0, Re):
-    """The runs of one (N_x, theta_0, Re) column, sorted by multiple."""
-    sel = [r for r in rows if int(r["nx"]) == nx and abs(float(r["theta0"]) - theta0) < 1e-9
-           and abs(float(r["Re"]) - Re) < 1e-9]
-    return sorted(sel, key=lambda r: float(r["multiple"]))
-
-
-def physical_time(col, m_ratio=1.08, t_tol=0.05):
-    """(t, criterion) when two failing runs of the column, >= m_ratio apart in dt, failed by the same
-    criterion within t_tol of the same physical time; else None.
-
-    A time-step instability fails later at a smaller dt (its growth per unit time falls with dt);
-    a failure that comes at the same time whatever dt is set by the flow itself (the physics or
-    the spatial resolution). Crashes count as time-step failures.
-    """
-    bad = [r for r in col if r["stable"] == "0" and not r["crash"]]
-    for i, a in enumerate(bad):
-        for b in bad[i + 1:]:
-            ma, mb, ta, tb = float(a["multiple"]), float(b["multiple"]), float(a["t_done"]), float(b["t_done"])
-            if (mb / ma >= m_ratio and a["first_failure"] == b["first_failure"]
-                    and abs(tb / ta - 1.0) <= t_tol):
-                return 0.5 * (ta + tb), a["first_failure"]
-    return None
-
-
-def verdict(row, phys, t_tol=0.1):
-    """'stable', 'physical' (failed at the column's physical failure time) or 'dt'."""
-    if row["stable"] == "1":
-        return "stable"
-    if phys and not row["crash"] and row["first_failure"] == phys[1] \
-            and abs(float(row["t_done"]) / phys[0] - 1.0) <= t_tol:
-        return "physical"
-    return "dt"
-
-
-def dt_bounds(col):
-    """(largest multiple with no time-step failure at or below it, smallest with one)."""
-    phys = physical_time(col)
-    lo = hi = None
-    for r in col:
-        v, m = verdict(r, phys), float(r["multiple"])
-        if v == "dt":
-            hi = m
-            break
-        lo = m
-    return lo, hi
-
-
-def search(res, theta0, Re, nx, down, up, tol, span, max_runs, source):
-    """Run the column at new multiples until its time-step limit lies within a ratio ``tol``:
-    ``down(hi)`` below a failure at the smallest multiple, ``up(lo)`` above the largest stable one,
-    bisection (geometric mean) between; stop beyond 1/span or span. Returns (stable, failing)."""
-    for _ in range(max_runs):
-        lo, hi = dt_bounds(column(res.rows, nx, theta0, Re))
-        if lo is None:
-            m = down(hi)
-            if m < 1 / span:
-                break
-        elif hi is None:
-            m = up(lo)
-            if m > span:
-                break
-        elif hi / lo > tol:
-            m = math.sqrt(lo * hi)
-        else:
-            break
-        res.get(theta0, Re, nx, m, source=source)
-    return dt_bounds(column(res.rows, nx, theta0, Re))
+def settling_results(path):
+    """The resumable CSV of the settling column's runs."""
+    return Results(path, lambda t, r, nx, m, source: run_settling_case(t, r, nx, m, source), SETTLING_FIELDS)
 
 
 def refine(res, theta0, Re, nx=50, tol=1.1, span=64.0, max_runs=12):
@@ -715,7 +490,7 @@ def main(argv=None):
         return main_settling(a)
     if a.integrator == "midpoint":
         return main_midpoint(a)
-    res = Results(os.path.join(a.out, "stability_map.csv"))
+    res = couette_results(os.path.join(a.out, "stability_map.csv"))
     nxs = [int(x) for x in a.nx.split(",") if x]
     if not a.plot_only:
         for t, r, nx, m in grid(nxs, a.quick):
@@ -762,7 +537,7 @@ MIDPOINT = {"theta0": (0.5, 0.6, 0.64, 0.7), "Re": (10.0, 57.0, 400.0, 2000.0), 
 
 def main_midpoint(a):
     """The dense, weakly damped corner again with the second-order integrator (same criteria)."""
-    res = Results(os.path.join(a.out, "stability_map_midpoint.csv"), integrator="midpoint")
+    res = couette_results(os.path.join(a.out, "stability_map_midpoint.csv"), integrator="midpoint")
     if not a.plot_only:
         for t in MIDPOINT["theta0"]:
             for r in MIDPOINT["Re"]:
@@ -779,39 +554,19 @@ def main_midpoint(a):
 
 # ---- the granular column (--scene settling) -------------------------------------------------------
 SETTLING_TOML = ROOT / "run" / "settling.toml"
-_EQ = {}
-
-
-def settling_equilibrium(x, *args, **kw):
-    """analytic.settling_equilibrium, memoised on its exact arguments (x included): each column's
-    runs share the wall positions, and one evaluation takes seconds (RK4 in Python, bisected)."""
-    x = np.asarray(x, dtype=float)
-    key = (x.tobytes(), x.shape, args, tuple(sorted(kw.items())))
-    if key not in _EQ:
-        _EQ[key] = analytic.settling_equilibrium(x, *args, **kw)
-    return _EQ[key].copy()
-
-
-settling_scene.settling_equilibrium = settling_equilibrium   # the scene's walls and reference use it too
 SETTLING = {"theta0": (0.55, 0.6, 0.64, 0.7), "nx": 20, "steps": 2000, "min_steps": 1000}
 SETTLING_FIELDS = FIELDS + ["integrator", "dt_force", "dt_damping", "theta_eq_max", "dt_limit_eq",
                             "limit_term_eq", "ke_bound"]
 
 
-def settling_raw():
-    with open(SETTLING_TOML, "rb") as f:
-        return tomllib.load(f)
-
-
 def settling_limits(theta0, nx, theta=None):
     """The predicted limits of the column at theta (default theta_0): parsph.physics.limits as config.build
     takes them (velocity scale sqrt(g h), |g|, the run file's integrator and pressure form)."""
-    raw = settling_raw()
-    L = raw["domain"]["L"]
-    over = [f"numerics.Nx={nx}", f"material.theta0={theta0!r}", f"domain.Ly={LY_IN_H * raw['numerics']['h_over_dx'] * L / nx!r}",
+    rf = RunFile.read(SETTLING_TOML)
+    L = rf.get("domain", "L")
+    over = [f"numerics.Nx={nx}", f"material.theta0={theta0!r}", f"domain.Ly={LY_IN_H * rf.get('numerics', 'h_over_dx') * L / nx!r}",
             'numerics.dt="auto"']
-    config.apply_overrides(raw, over)
-    cfg = config.build(raw, config.dumps(raw))
+    cfg = config.build(rf.override(over))
     g = math.sqrt(sum(x * x for x in cfg.g))
     return limits.run_limits(cfg, theta0 if theta is None else theta, cfg.velocity_scale, g)
 
@@ -819,41 +574,24 @@ def settling_limits(theta0, nx, theta=None):
 def settling_config(theta0, nx, multiple, steps=None, extra=()):
     """The column at dt = multiple x the predicted limit, for steps x that limit in time, and for
     at least SETTLING["min_steps"] steps (a time-step instability grows per step)."""
-    raw = settling_raw()
+    rf = RunFile.read(SETTLING_TOML)
     lim = min(settling_limits(theta0, nx).values())
     steps = max(steps or SETTLING["steps"], SETTLING["min_steps"] * multiple)
-    h = raw["numerics"]["h_over_dx"] * raw["domain"]["L"] / nx
+    h = rf.get("numerics", "h_over_dx") * rf.get("domain", "L") / nx
     over = [f"material.theta0={theta0!r}", f"numerics.Nx={nx}", f"domain.Ly={LY_IN_H * h!r}",
             f"numerics.dt={multiple * lim!r}", "numerics.allow_unstable_dt=true",
             f"output.t_end={steps * lim!r}", "output.times=[]", "output.progress_interval=0",
             "checks.every=1", "checks.theta_change=1.0", "checks.energy=true", *extra]
-    config.apply_overrides(raw, over)
-    return config.build(raw, config.dumps(raw))
+    return config.build(rf.override(over))
 
 
-class SettlingRecorder(Recorder):
-    """The criteria of the column: theta against the settling equilibrium, the scene's energy bound.
-
-    Stops the run (CriterionFailed) at the first criterion that fails."""
-
-    def __init__(self, cfg, theta_frac):
-        super().__init__(cfg, theta_frac)
-        self.xs = np.linspace(0.0, cfg.L, 2001)
-        # the balance the run's pressure form converges to: what the scene's walls hold
-        self.theta_eq = cfg.scene.wall_theta(cfg, self.xs)
-        self.ke_bound_per_mass = cfg.scene.max_kinetic_energy(cfg, 1.0, 0.0)
-        self.speed_scale = cfg.velocity_scale
-
-    def theta_ref(self, x):
-        return np.interp(np.nan_to_num(x), self.xs, self.theta_eq)
-
-    def __call__(self, sim):
-        now, dev, ke_ratio = super().__call__(sim)
-        fired = [c for c in CRITERIA if now[c]]
-        if fired:
-            raise CriterionFailed(f"probe: {', '.join(fired)} at step {sim.step}, t = {sim.t:.6g} s "
-                                  f"(theta dev {dev:.3g}, KE/bound {ke_ratio:.3g})")
-        return now, dev, ke_ratio
+def settling_recorder(cfg):
+    """The column's criteria, the run stopped at the first that fails: theta against the balance the
+    run's pressure form converges to (what the scene's walls hold), the scene's energy bound; and
+    that balance on 2,001 points of [0, L]."""
+    xs = np.linspace(0.0, cfg.L, 2001)
+    theta_eq = cfg.scene.wall_theta(cfg, xs)
+    return Recorder(cfg, THETA_FRAC, theta_ref=lambda x: np.interp(x, xs, theta_eq), stop=True), theta_eq
 
 
 def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
@@ -861,8 +599,8 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
     cfg = settling_config(theta0, nx, multiple, steps)
     lim = settling_limits(theta0, nx)
     term = min(lim, key=lim.get)
-    rec = SettlingRecorder(cfg, THETA_FRAC)
-    th_eq = float(rec.theta_eq.max())
+    rec, theta_eq = settling_recorder(cfg)
+    th_eq = float(theta_eq.max())
     lim_eq = settling_limits(theta0, nx, th_eq)
     outcome = run_and_classify(cfg, rec)
     c2 = modulus(theta0, cfg.G_a, cfg.G_b) / cfg.rho_s
@@ -874,7 +612,7 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
         **outcome, "source": source, "commit": COMMIT,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
         "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
-        "ke_bound": rec.ke_bound_per_mass,
+        "ke_bound": cfg.scene.max_kinetic_energy(cfg, 1.0, 0.0),
     }
 
 
@@ -966,9 +704,7 @@ def summary_settling(rows):
 
 def main_settling(a):
     nx = SETTLING["nx"]
-    res = Results(os.path.join(a.out, "stability_settling.csv"),
-                  runner=lambda t, r, nx_, m, source: run_settling_case(t, r, nx_, m, source),
-                  fields=SETTLING_FIELDS)
+    res = settling_results(os.path.join(a.out, "stability_settling.csv"))
     if not a.plot_only:
         for t in SETTLING["theta0"]:
             Re = settling_re(t, nx)
@@ -998,7 +734,7 @@ def run_auto(theta0, Re, nx, steps=STEPS, integrator="paper"):
 
 def main_damping(a, theta0=0.7, Re=57.0):
     """Fixed dt at fractions of nu/c^2 (of theta_0) and dt = "auto", theta_0 = 0.7, Re = 57, per N_x."""
-    res = Results(os.path.join(a.out, "stability_damping.csv"))
+    res = couette_results(os.path.join(a.out, "stability_damping.csv"))
     lines = [f"theta0 = {theta0:g}, Re = {Re:g}: fixed dt = f nu/c^2, {STEPS} steps; and dt = \"auto\""]
     for nx in [int(x) for x in a.nx.split(",") if x]:
         k, h, lim, term, dt_ac = physics(theta0, Re, nx)
@@ -1054,7 +790,7 @@ def record_auto(path, row):
 def main_pred(a):
     """Per column: fixed dt at multiples of the prediction (PRED_MULTS, 0.5 too where 1 fails; with
     --bracket: bracketed to 25 %) unless --auto-only, and one dt = "auto" run."""
-    res = Results(os.path.join(a.out, f"stability_pred_{a.integrator}.csv"), integrator=a.integrator)
+    res = couette_results(os.path.join(a.out, f"stability_pred_{a.integrator}.csv"), integrator=a.integrator)
     auto_path = os.path.join(a.out, "stability_auto.csv")
     done = {(r["nx"], r["theta0"], r["Re"], r["integrator"]) for r in load_rows(auto_path)}
     if a.pred == "all":
@@ -1097,9 +833,7 @@ def main_settling_auto(a):
     auto_path = os.path.join(a.out, "stability_auto.csv")
     done = {(r["nx"], r["theta0"], r["integrator"]) for r in load_rows(auto_path)}
     nx = SETTLING["nx"]
-    res = Results(os.path.join(a.out, "stability_settling.csv"),
-                  runner=lambda t, r, nx_, m, source: run_settling_case(t, r, nx_, m, source),
-                  fields=SETTLING_FIELDS)
+    res = settling_results(os.path.join(a.out, "stability_settling.csv"))
     for t in SETTLING["theta0"]:
         if a.bracket:
             lo, hi = bracket(res, t, settling_re(t, nx), nx, tol=a.tol)
@@ -1108,24 +842,10 @@ def main_settling_auto(a):
             continue
         lim = settling_limits(t, nx)
         cfg = settling_config(t, nx, 1.0, extra=['numerics.dt="auto"'])
-        outcome = run_and_classify(cfg, SettlingRecorder(cfg, THETA_FRAC))
+        outcome = run_and_classify(cfg, settling_recorder(cfg)[0])
         record_auto(auto_path, auto_row(nx, t, settling_re(t, nx), "settling", outcome, cfg.dt,
                                         min(lim, key=lim.get), cfg.k))
     return 0
-
-
-def measured_bounds(rows):
-    """(largest dt [s] with no time-step failure at or below it, smallest dt with one) of one column."""
-    rows = sorted(rows, key=lambda r: float(r["dt"]))
-    phys = physical_time(sorted(rows, key=lambda r: float(r["multiple"])))
-    lo = hi = None
-    for r in rows:
-        v = r.get("verdict") or verdict(r, phys)
-        if v == "dt":
-            hi = float(r["dt"])
-            break
-        lo = float(r["dt"])
-    return lo, hi
 
 
 def main_longer(a):
@@ -1134,8 +854,8 @@ def main_longer(a):
     for spec in a.longer.split(","):
         nx, t, Re, m, steps = spec.split(":")
         res = Results(os.path.join(a.out, "stability_longer.csv"),
-                      runner=lambda t_, r_, nx_, m_, source, n=int(steps): run_case(t_, r_, nx_, m_, steps=n,
-                                                                                  source=source))
+                      lambda t_, r_, nx_, m_, source, n=int(steps): run_case(t_, r_, nx_, m_, steps=n, source=source),
+                      FIELDS)
         res.get(float(t), float(Re), int(nx), float(m), source=f"longer {steps}")
     return 0
 

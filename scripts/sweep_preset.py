@@ -1,12 +1,12 @@
-"""Run a run file through the parsph CLI on one rank, in this process, and report its errors and cost.
+"""Run a run file as ``parsph run`` does, on one rank, in this process, and report its errors and cost.
 
     nice -n 10 .venv/bin/python scripts/sweep_preset.py run/couette_fast.toml [--out DIR]
 
 The numbers quoted in the comments of run/couette_*.toml come from here: the
 error table of the run's output files, the process CPU time of the whole
 command (imports, numba cache load, set-up, time loop, HDF5 output with
-snapshots) and of the time loop alone (the CLI's "done:" line gives its wall
-time; the loop's CPU time is measured around it here), and wall time.
+snapshots) and of the time loop alone (``run_case``'s result: the library call
+under ``parsph run``), and wall time.
 """
 import argparse
 import contextlib
@@ -27,31 +27,23 @@ def main():
     args = ap.parse_args()
     name = os.path.splitext(os.path.basename(args.config))[0]
     out = args.out or os.path.join(ROOT, "results", "presets", name)
-    from parsph import cli
-    from parsph.simulation import solver
+    from mpi4py import MPI
+    from parsph.cli.report import print_table
     from parsph.output import read_profile
-    loop = {}
-    run = solver.Simulation.run
-
-    def timed_run(self, *a, **k):  # CPU time of the time loop alone
-        c0 = time.process_time()
-        try:
-            return run(self, *a, **k)
-        finally:
-            loop["cpu"] = time.process_time() - c0
-            loop["steps"] = self.step
-    solver.Simulation.run = timed_run
+    from parsph.setup import config
+    from parsph.simulation.case import run_case
     text = io.StringIO()
     with contextlib.redirect_stdout(text):
-        rc = cli.main(["run", args.config, "--out", out, "--force", "--quiet"])
+        res = run_case(MPI.COMM_SELF, config.load(args.config), out, name, force=True, say=print)
+        print_table(out)
     cpu, wall = time.process_time() - T0_CPU, time.perf_counter() - T0_WALL
     print(text.getvalue())
     prof = read_profile(out)
-    print(f"{name}: exit {rc}, {prof['attrs']['n_particles']} particles, {loop.get('steps')} steps; "
-          f"process CPU {cpu:.1f} s (time loop {loop.get('cpu', float('nan')):.1f} s), wall {wall:.1f} s")
+    print(f"{name}: {prof['attrs']['n_particles']} particles, {res.sim.step} steps; "
+          f"process CPU {cpu:.1f} s (time loop {res.cpu_s:.1f} s), wall {wall:.1f} s")
     for t, e, r in zip(prof["time"], prof["err_max"], prof["err_rms"]):
         print(f"  t = {t:g} s: max {e:.2e}, rms {r:.2e}")
-    return rc
+    return 0
 
 
 if __name__ == "__main__":

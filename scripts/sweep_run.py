@@ -26,7 +26,6 @@ import math
 import os
 import sys
 import time
-import tomllib
 
 import numpy as np
 
@@ -37,9 +36,10 @@ if "--code" in sys.argv:  # a snapshot of parsph (scripts/sweep.py makes one), a
 
 from mpi4py import MPI  # noqa: E402
 
-from parsph.setup import config  # noqa: E402
+from parsph.studies import cases  # noqa: E402
 from parsph.sph.particles import FLUID  # noqa: E402
-from parsph.simulation.solver import GuardError, Simulation  # noqa: E402
+from parsph.errors import GuardError  # noqa: E402
+from parsph.simulation.solver import Simulation  # noqa: E402
 
 TIMES = (0.01, 0.05, 0.2, 0.5)
 DEFAULTS = {"h_over_dx": 1.25, "kernel": "cubic_spline", "integrator": "paper", "dt": "auto",
@@ -53,21 +53,15 @@ def choices(run):
 
 
 def build_config(run):
-    """The paper case (Table 1 physics from run/couette_paper.toml) with the run's numerics."""
+    """The paper case (Table 1 physics: cases.couette, square box) with the run's numerics."""
     c = choices(run)
-    with open(os.path.join(ROOT, "run", "couette_paper.toml"), "rb") as f:
-        raw = tomllib.load(f)
-    raw["numerics"].pop("h", None)
-    dt = '"auto"' if c["dt"] == "auto" else repr(float(c["dt"]))
     times = [t for t in TIMES if t <= c["t_end"] * (1 + 1e-12)]
-    config.apply_overrides(raw, [
-        f"numerics.Nx={int(c['Nx'])}", f"numerics.h_over_dx={float(c['h_over_dx'])!r}",
+    return cases.couette(int(c["Nx"]), h_over_dx=float(c["h_over_dx"]),
+                         dt="auto" if c["dt"] == "auto" else float(c["dt"]), overrides=[
         f'numerics.kernel="{c["kernel"]}"', f'numerics.integrator="{c["integrator"]}"',
-        f"numerics.dt={dt}", f"numerics.dt_safety={float(c['dt_safety'])!r}",
-        f"walls.beta_max={float(c['beta_max'])!r}", f"walls.layers={int(c['layers'])}",
-        f"output.t_end={float(c['t_end'])!r}", f"output.times={times!r}",
-        "output.progress_interval=0.0", "output.snapshots=false", *c["set"]])
-    return config.build(raw, config.dumps(raw))
+        f"numerics.dt_safety={float(c['dt_safety'])!r}", f"walls.beta_max={float(c['beta_max'])!r}",
+        f"walls.layers={int(c['layers'])}", f"output.t_end={float(c['t_end'])!r}", f"output.times={times!r}",
+        "output.snapshots=false", *c["set"]])
 
 
 def warm_up(run):

@@ -9,7 +9,8 @@
    paper's pressure form converges to).
 2. Couette with L_y = N_y dx for N_y = 50, 25, 10, 5, 3 to t = 0.05 s: the
    largest difference of the profile from the square box's, the error against
-   Eq. (8), the particle count and the largest rank count (slabs >= 2h).
+   Eq. (8), the particle count and the largest rank count (``parsph.simulation.case.max_ranks``: what
+   ``parsph run`` accepts, slabs that hold their ghost rows).
 3. Couette (N_x = 50, L_y = L) with and without the pressure term: CPU time per
    step (one rank, to t = 0.05 s), and the whole run on ``--ranks`` ranks: the
    profile error at t = 0.01, 0.05 and 0.5 s and the spread of the particles'
@@ -31,7 +32,7 @@ from parsph.setup import config
 from parsph.physics.analytic import settling_equilibrium
 from parsph.output import output_files, read_profile, read_snapshot
 from parsph.sph.particles import FLUID
-from parsph.setup.scenes import error_scale
+from parsph.simulation.case import max_ranks
 from parsph.simulation.solver import Simulation
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -104,11 +105,11 @@ def scene_row(name, a):
         cfg = config.loads(at["run_file"])
         rows = []
         for t, f, fe in zip(p["time"], p["vy"], p["vy_exact"]):
-            a = error_scale(cfg, t)
+            a = cfg.error_scale(t)
             ratio = float(np.dot(f, fe) / np.dot(fe, fe))  # A_sim / A_ref
-            rate = math.log(ratio * a / error_scale(cfg, 0.0)) / math.log(a / error_scale(cfg, 0.0)) - 1.0
+            rate = math.log(ratio * a / cfg.error_scale(0.0)) / math.log(a / cfg.error_scale(0.0)) - 1.0
             rows.append(f"t = {t:g} s: {np.nanmax(np.abs(f - fe)) / a:.2e} of the amplitude left "
-                        f"({a / error_scale(cfg, 0.0):.1e} U), decay rate {rate:+.2%}")
+                        f"({a / cfg.error_scale(0.0):.1e} U), decay rate {rate:+.2%}")
         msg = "; ".join(rows)
     else:
         k = int(np.nanargmax(p["err_max"]))
@@ -153,7 +154,7 @@ def main():
             if base is None:
                 base = prof["vy"]
             diff = np.abs(prof["vy"] - base).max() / cfg.V_w
-            pmax = int(math.floor(ly / (2 * cfg.h) * (1 + 1e-12)))
+            pmax = max_ranks(cfg)
             lines.append(f"| {ly:g} m | {ny} | {sim.n_total} | {diff:.1e} | {prof['err'][0]:.3e} | {pmax} |")
     if 3 in a.parts:
         lines += ["", "The pressure term in Couette flow (N_x = 50, L_y = L): CPU time per step (one rank, "

@@ -39,7 +39,7 @@ def run_cli(*args, timeout=60):
 
 
 def paper_raw():
-    """The paper run file as a raw dict (to edit before :func:`parsph.setup.config.build`)."""
+    """The paper run file as a raw dict (to edit before :func:`parsph.setup.config.build` of a RunFile of it)."""
     with open(PAPER_TOML, "rb") as f:
         return tomllib.load(f)
 

@@ -36,6 +36,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.physics.analytic import couette_velocity
 from parsph.physics.lattice_sums import viscosity_bias
 from parsph.simulation.solver import Simulation
@@ -59,7 +60,7 @@ def max_error(Nx, kernel, h_over_dx, beta_max):
     raw["numerics"].update({"Nx": Nx, "h_over_dx": h_over_dx, "kernel": kernel, "dt": "auto", "dt_safety": 0.25})
     raw["walls"]["beta_max"] = beta_max
     raw["output"].update({"t_end": T, "times": [T], "progress_interval": 0.0, "snapshots": False})
-    cfg = config.build(raw, config.dumps(raw))
+    cfg = config.build(RunFile(raw))
     errs = []
     sim = Simulation(cfg, MPI.COMM_SELF)
     sim.run(output=lambda s, snapshot=None: errs.append(s.profile["err"][0]))

@@ -41,8 +41,12 @@ def test_viscosity():
     assert closures.viscosity(0.5, 2.0) == pytest.approx(1.0, rel=1e-15)
 
 
-def test_paper_derived(paper_cfg):
-    cfg = paper_cfg()
+@pytest.mark.parametrize("source", ["run file", "package"])
+def test_paper_derived(paper_cfg, source):
+    """run/couette_paper.toml and the package's Table 1 (studies.cases.paper_run_file) are the same case."""
+    from parsph.setup import config
+    from parsph.studies import cases
+    cfg = paper_cfg() if source == "run file" else config.build(cases.paper_run_file())
     assert cfg.nu == pytest.approx(1.75e-4, rel=1e-12)
     assert cfg.reynolds == pytest.approx(57.142857, rel=1e-4)
     assert cfg.dx == pytest.approx(2e-4, rel=1e-12)
@@ -61,7 +65,8 @@ def test_paper_stability_limits(paper_cfg):
     from parsph.physics import limits
     cfg = paper_cfg()
     # Monaghan's limits with the closure's c (consistent form) and with the paper form's c_eff (PHYSICS.md)
-    cons = limits.classical_limits(cfg.h, cfg.theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="consistent")
+    material, lattice, _ = limits.groups(cfg)
+    cons = limits.classical_limits(cfg.theta0, 1.0, material, lattice, limits.Terms(form="consistent"))
     assert cons["cfl"] == pytest.approx(5.2e-5, rel=0.02)
     assert cons["viscous"] == pytest.approx(4.5e-5, rel=0.02)
     assert cons["force"] == math.inf  # no body force in the paper case
@@ -70,7 +75,7 @@ def test_paper_stability_limits(paper_cfg):
     assert c == pytest.approx(0.195, rel=0.01)
     assert cons["cfl"] == pytest.approx(0.25 * 2.5e-4 / (c + 1.0), rel=1e-3)
     assert cons["viscous"] == pytest.approx(0.125 * 2.5e-4 ** 2 / 1.75e-4, rel=1e-12)
-    paper = limits.classical_limits(cfg.h, cfg.theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="paper")
+    paper = limits.classical_limits(cfg.theta0, 1.0, material, lattice, limits.Terms(form="paper"))
     assert paper["cfl"] == pytest.approx(4.0e-5, rel=0.02)
     # the run's limit (von Neumann, viscous here) accepts the paper's dt
     assert min(cfg.limits, key=cfg.limits.get) == "viscous" and min(cfg.limits.values()) > cfg.dt
@@ -82,6 +87,7 @@ def test_cfl_limits_table(paper_cfg, theta0, dtcfl):
     """PHYSICS.md "Extremes worth probing": CFL limits with c_eff, k = 1, V_w = 1 (printed to 2 digits)."""
     from parsph.physics import limits
     cfg = paper_cfg(f"material.theta0={theta0}", "numerics.dt=\"auto\"")
-    cfl = limits.classical_limits(cfg.h, theta0, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, 1.0, form="paper")["cfl"]
+    material, lattice, _ = limits.groups(cfg)
+    cfl = limits.classical_limits(theta0, 1.0, material, lattice, limits.Terms(form="paper"))["cfl"]
     assert float(f"{cfl:.2g}") == dtcfl
     assert cfg.dt_auto and cfg.dt == pytest.approx(min(cfg.limits.values()), rel=1e-12)

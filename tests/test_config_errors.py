@@ -9,6 +9,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
+from parsph.errors import ConfigError
 from conftest import PAPER_TOML, run_cli
 
 PAPER = PAPER_TOML.read_text()
@@ -152,7 +153,6 @@ def test_set_overrides_change_config(paper_cfg):
 
 
 def test_config_error_names_key(paper_cfg):
-    from parsph.setup.config import ConfigError
     with pytest.raises(ConfigError) as e:
         paper_cfg("numerics.dt=2e-4")   # above the viscous limit 2 / gamma_max = 1.14e-4 s (docs/stability.md)
     assert e.value.key == "numerics.dt"
@@ -173,7 +173,6 @@ def test_checks_section(paper_cfg):
     cfg = paper_cfg("checks.every=5", "checks.theta_change=0.2", "checks.energy=false")
     assert (cfg.get("checks.every"), cfg.get("checks.theta_change"), cfg.get("checks.energy")) == (5, 0.2, False)
     assert "[checks]" in cfg.text and "every = 5" in cfg.text
-    from parsph.setup.config import ConfigError
     with pytest.raises(ConfigError) as e:
         paper_cfg("output.check_every=5")
     assert e.value.key == "output.check_every"
@@ -204,13 +203,14 @@ def test_numerics_options(paper_cfg):
 def test_smoothing_length_errors_name_the_cause(overrides, key, words):
     """An h too large for the box or too small to reach a neighbour is blamed on the h key given."""
     from parsph.setup import config
+    from parsph.setup.runfile import RunFile
     from conftest import paper_raw
     raw = paper_raw()
     if "numerics.h=None" in overrides:
         raw["numerics"].pop("h")
-    config.apply_overrides(raw, [o for o in overrides if o != "numerics.h=None"])
-    with pytest.raises(config.ConfigError) as e:
-        config.build(raw, config.dumps(raw))
+    run_file = RunFile(raw).override([o for o in overrides if o != "numerics.h=None"])
+    with pytest.raises(ConfigError) as e:
+        config.build(run_file)
     assert e.value.key == key, e.value
     for w in words:
         assert w in str(e.value), (w, str(e.value))

@@ -269,7 +269,7 @@ def test_predict_setting_trades_dt_against_nx_on_a_known_space_time_error():
     on_coarse = [model(n, dt2(n)) for n in (12, 24, 48)]
     est = cv.estimate(on_coarse, 2)
     assert est.asymptotic and est.order == pytest.approx(2.0, abs=0.05)
-    T = (model(nf, lim(nf)) - model(nf, dt2(nf)))[est._ok] / (lim(nf) - dt2(nf))
+    T = (model(nf, lim(nf)) - model(nf, dt2(nf)))[est.used] / (lim(nf) - dt2(nf))
     cost_dx2 = lambda n: (n / n0) ** 4                  # particles ~ N^2, steps ~ N^2 at dt ~ dx^2
     target = 2e-3
     n, dt, lm, err, cost = cv.predict_setting([12, 24, 48], [(0.05, est, T)], target, (dt2(nf), lim), cost_dx2)

@@ -19,6 +19,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.physics.analytic import couette_velocity, couette_velocity_images
 from parsph.simulation.solver import Simulation
 
@@ -69,7 +70,7 @@ def run_couette(Nx, **numerics):
     raw["output"]["t_end"] = T_END
     raw["output"]["times"] = [T_END / 2, T_END]
     raw["output"]["progress_interval"] = 0.0
-    cfg = config.build(raw, config.dumps(raw))
+    cfg = config.build(RunFile(raw))
     if not numerics:
         assert cfg.dt == 1e-5 and cfg.nsteps == 2000
     assert cfg.h == pytest.approx(1.25 * cfg.L / Nx, rel=1e-12)
@@ -170,7 +171,7 @@ def test_auto_dt_midpoint_lands_on_output_times(coarse):
 
 def test_plot_reference_lines_reach_the_plates():
     """`parsph plot` draws Eq. (8) on a fine grid over [0, L]: 0 at the fixed plate, V_w at the moving one."""
-    from parsph.cli.command import reference_lines
+    from parsph.cli.report import reference_lines
     text = PAPER_TOML.read_text()
     cfg = config.loads(text)
     times = np.array([1e-4, 0.01, 0.5])

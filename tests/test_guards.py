@@ -6,10 +6,13 @@ names the wrong particle, misses the theta range, or lets a particle jump a slab
 - theta range (check 3): the particle furthest from theta_0 is named; a real run with a tight
   checks.theta_change stops with check 3;
 - an observer passed to ``run`` sees every step and changes nothing (bit for bit);
+- the criteria as an observer reads them (``guards.read``: the stability map's and the stability
+  tests'), on particles whose depths, theta, energy and speeds are written here;
 - check 5 ("moved more than h in one step"): ``mpirun -n 2 parsph run`` with the plate moving
   4h in one step exits 3 with one message line, at the first step (the jump is counted with the
   non-finite states in the per-step all-reduce).
 """
+import math
 import re
 import sys
 import textwrap
@@ -21,7 +24,9 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.sph.particles import FLUID
-from parsph.simulation.solver import CHECKS, GuardError, Simulation
+from parsph.errors import GuardError
+from parsph.simulation.guards import CHECKS
+from parsph.simulation.solver import Simulation
 
 from conftest import PAPER_TOML
 
@@ -45,7 +50,8 @@ WORST = textwrap.dedent("""
     from mpi4py import MPI
     from parsph.setup import config
     from parsph.sph.particles import FLUID
-    from parsph.simulation.solver import GuardError, Simulation
+    from parsph.errors import GuardError
+    from parsph.simulation.solver import Simulation
     comm = MPI.COMM_WORLD
     cfg = config.load(sys.argv[1], sys.argv[3:])
     sim = Simulation(cfg, comm)
@@ -151,6 +157,37 @@ def test_observer_sees_every_step_and_changes_nothing():
     with pytest.raises(Stop):
         sim.run(observe=stop_at_3)
     assert sim.step == 3
+
+
+# ---- the criteria read without stopping (guards.read) ----------------------------------------------
+def test_read_measures_the_checks_criteria_on_particles_written_here(paper_cfg):
+    """Three fluid particles (one 1e-4 m below the floor, one 3e-4 m beyond the plate) and two wall
+    particles, whose positions, theta and velocities never count: depth, theta deviation, kinetic
+    energy, speed and v_y range by hand, and which criteria fail."""
+    from parsph.simulation.guards import read
+    from parsph.sph.particles import WALL
+    cfg = paper_cfg()
+    fields = {"kind": np.array([FLUID, FLUID, FLUID, WALL, WALL]),
+              "position": np.array([[-1e-4, 0.0], [L + 3e-4, 1e-3], [5e-3, 2e-3], [-5e-4, 0.0], [L + 1e-3, 0.0]]),
+              "velocity": np.array([[0.0, 1.0], [0.3, 0.4], [0.0, -0.5], [0.0, 9.0], [9.0, 0.0]]),
+              "theta": np.array([0.35, 0.42, 0.28, 0.9, 0.0]), "mass": np.array([2.0, 1.0, 1.0, 50.0, 50.0])}
+    r = read(fields, cfg)
+    assert not r.nonfinite
+    assert r.depth == pytest.approx(3e-4, rel=1e-12)
+    assert r.theta_dev == pytest.approx(0.07 / 0.35, rel=1e-12)
+    assert r.kinetic_energy == pytest.approx(0.5 * (2 * 1.0 + 0.25 + 0.25), rel=1e-12) and r.mass == 4.0
+    assert r.speed == pytest.approx(1.0, rel=1e-12) and (r.vy_min, r.vy_max) == (-0.5, 1.0)
+    # the bound of Couette flow: 1/2 M V_w^2 = 2 J/m, above 1.25
+    assert r.failed(cfg, 0.0, 0.1) == {"nonfinite": False, "wall": True, "theta": True, "energy": False}
+    assert not r.failed(cfg, 0.0, 0.25)["theta"]
+    # against a theta of 0.4 everywhere: the furthest is 0.28, 0.3 of it
+    assert read(fields, cfg, theta_ref=lambda x: np.full(len(x), 0.4)).theta_dev == pytest.approx(0.3, rel=1e-12)
+    fields["velocity"][3, 0] = np.nan       # a wall particle: does not count
+    assert not read(fields, cfg).nonfinite
+    fields["velocity"][2, 0] = np.nan       # a fluid particle: non-finite
+    assert read(fields, cfg).nonfinite
+    fields["theta"][1] = np.inf
+    assert read(fields, cfg).theta_dev == math.inf
 
 
 # ---- check 5: a particle moved more than h in one step (2 ranks) ---------------------------------

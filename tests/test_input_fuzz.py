@@ -5,7 +5,7 @@
 Properties:
 
 * In process (``parsph.setup.config``: what ``load`` / ``loads`` do after reading
-  the file: ``build(raw, dumps(raw))``): whatever a run file holds (any TOML
+  the file: ``build(RunFile(raw))``): whatever a run file holds (any TOML
   type in any key, missing and unknown keys and sections, NaN, +-inf, zero,
   negative, subnormal, huge and non-64-bit numbers, several bad keys at once,
   random text, random ``--set`` overrides), validation either returns a
@@ -15,7 +15,7 @@ Properties:
   exception (OverflowError, ZeroDivisionError, TypeError, ...) is a bug.
   A wrong type, a non-finite or out-of-range value, a missing required key
   or an unknown key must name exactly that key.
-* The memory check (``parsph.cli.run.fits_in_memory``) with a stubbed memory figure:
+* The memory check (``parsph.simulation.case.fits_in_memory``) with a stubbed memory figure:
   random large Nx, Ly, Lz and h / dx in 2-D and 3-D on 1 to 4 nodes is
   refused (ConfigError on ``numerics.Nx`` with the particle count and the
   estimate in GB) exactly when the estimate exceeds 80% of the memory.
@@ -67,7 +67,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
 import common as C  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
-from parsph.setup.config import REQUIRED, SCHEMA, ConfigError  # noqa: E402
+from parsph.setup.runfile import RunFile  # noqa: E402
+from parsph.errors import ConfigError  # noqa: E402
+from parsph.setup.schema import REQUIRED, SCHEMA  # noqa: E402
 
 BASE_TEXT = C.PAPER.read_text()
 BASE = tomllib.loads(BASE_TEXT)
@@ -139,8 +141,7 @@ def base():
 
 def validate_raw(raw):
     """config.loads after tomllib: the text is written before validation, as there."""
-    text = config.dumps(raw)
-    return config.build(raw, text)
+    return config.build(RunFile(raw))
 
 
 def outcome(raw, what):
@@ -752,7 +753,7 @@ def test_cli_property_two_ranks(case, data):
 # ---- the memory check, with a stubbed memory figure ------------------------------------------------
 
 class _StubComm:
-    """Enough of a communicator for run.fits_in_memory: ``allgather`` reports the stubbed
+    """Enough of a communicator for case.fits_in_memory: ``allgather`` reports the stubbed
     memory of each of ``hosts`` nodes (several ranks of one node count once)."""
 
     def __init__(self, mem, hosts, ranks):
@@ -774,8 +775,7 @@ def test_memory_check_for_huge_particle_counts(data):
     """Random large Nx, Ly and Lz in 2-D and 3-D against a stubbed memory figure: refused
     (ConfigError on numerics.Nx with the estimate in GB) exactly when the particles need more
     than 80% of the nodes' memory, accepted otherwise."""
-    import mpi4py
-    from parsph.cli import run
+    from parsph.simulation import case
     raw = base()
     dim = data.draw(st.sampled_from([2, 3]))
     num = raw["numerics"]
@@ -797,11 +797,10 @@ def test_memory_check_for_huge_particle_counts(data):
     mem = int(need * 10 ** data.draw(st.floats(-3.0, 3.0)))
     hosts = data.draw(st.integers(1, 4))
     comm = _StubComm(mem, hosts, hosts * data.draw(st.integers(1, 8)))
-    with pytest.MonkeyPatch.context() as mp:  # no MPI_Init in the test process
-        mp.setitem(sys.modules, "mpi4py.MPI", _StubMPI)
-        mp.setattr(mpi4py, "MPI", _StubMPI, raising=False)
+    with pytest.MonkeyPatch.context() as mp:  # the stubbed nodes' names
+        mp.setattr(case, "MPI", _StubMPI)
         try:
-            run.fits_in_memory(comm, cfg)
+            case.fits_in_memory(comm, cfg)
         except ConfigError as e:
             COUNTS["memory check (stubbed memory), refused"] += 1
             assert need > 0.8 * mem * hosts, f"refused: {need:.3g} B of {mem * hosts:.3g} B: {e}"

@@ -313,7 +313,8 @@ def test_sigkill_mid_write_leaves_only_whole_outputs(tmp_path, restart_ranks):
 def test_stop_requested_on_one_rank_in_process(mpi_tmp_path):
     """A stop seen by the last rank only: every rank writes the final snapshot and raises Interrupted."""
     from parsph.output import Output, read_snapshot, read_state
-    from parsph.simulation.solver import Interrupted, Simulation
+    from parsph.errors import Interrupted
+    from parsph.simulation.solver import Simulation
     comm, cfg, (a, b) = C.comm_world_case(mpi_tmp_path, ("stopped", "uninterrupted"),
                                           "output.t_end=0.0003", "output.times=[0.0003]")
 

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from parsph.physics.lattice_sums import sheared_lattice_bias, sheared_lattice_sums, viscosity_bias
-from parsph.physics.kernels import KERNEL_NAMES, lattice_sum, get_kernel
+from parsph.physics.kernels import KERNEL_NAMES, get_kernel
+from parsph.physics.lattice_sums import lattice_sum
 
 import lattice_brute
 
@@ -83,7 +84,7 @@ def test_sums_equal_a_brute_force_pair_sum(kernel, h_over_dx, s):
 
 @pytest.mark.parametrize("kernel, h_over_dx", CASES)
 def test_square_lattice(kernel, h_over_dx):
-    """Shift 0 is the square lattice: viscosity_bias, and kernels.lattice_sum's density (dx = 1)."""
+    """Shift 0 is the square lattice: viscosity_bias, and lattice_sums.lattice_sum's density (dx = 1)."""
     nu, dens = sheared_lattice_sums(kernel, h_over_dx, 0.0)
     assert viscosity_bias(kernel, h_over_dx) == pytest.approx(brute_force(kernel, h_over_dx, 0.0)[0], rel=1e-12)
     assert dens == pytest.approx(lattice_sum(get_kernel(kernel, 2), h_over_dx, (1.0, 1.0)), rel=1e-13)

@@ -19,6 +19,7 @@ from mpi4py import MPI
 
 from parsph.physics import closures, limits
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.simulation.solver import Simulation
 from parsph.sph.particles import FLUID
 
@@ -35,7 +36,7 @@ def patch(theta, form="paper", k=1.0, kernel="cubic_spline", h_over_dx=1.25):
            "numerics": {"Nx": N, "h_over_dx": h_over_dx, "dt": 1e-12, "pressure_form": form, "kernel": kernel,
                         "allow_unstable_dt": True},
            "output": {"t_end": 1e-11}}
-    return Simulation(config.build(raw, config.dumps(raw)), MPI.COMM_SELF)
+    return Simulation(config.build(RunFile(raw)), MPI.COMM_SELF)
 
 
 def jacobian(sim):
@@ -67,7 +68,8 @@ def jacobian(sim):
 
 def patch_modes(sim, theta, form, k, kernel="cubic_spline"):
     """omega^2 and gamma of limits.modes on the patch's own wave vectors, each counted as often as it occurs."""
-    w2, g, kap = limits.modes(theta, k, RHO_S, GA, GB, sim.cfg.h, (DX, DX), kernel, form, nkappa=N // 2 + 1)
+    w2, g, kap = limits.modes(theta, limits.Material(RHO_S, k, GA, GB), limits.Lattice(sim.cfg.h, (DX, DX), kernel),
+                              limits.Terms(form=form), nkappa=N // 2 + 1)
     idx = np.rint(kap * DX / (2 * math.pi / N)).astype(int)
     w_all, g_all = [], []
     for (kx, ky), w, gg in zip(idx, w2, g):
@@ -99,13 +101,15 @@ def test_classical_limits_follow_their_formulas():
     h, theta, k, v, a = 2.5e-4, 0.35, 1.0, 1.0, 30.0
     G = 10 ** (GA * theta + GB)
     c_eff = math.sqrt(G * (1 + GA * math.log(10) * theta) / RHO_S)
-    lim = limits.classical_limits(h, theta, RHO_S, k, GA, GB, v, a, "paper")
+    material, lattice = limits.Material(RHO_S, k, GA, GB), limits.Lattice(h, (h / 1.25, h / 1.25))
+    lim = limits.classical_limits(theta, v, material, lattice, limits.Terms(form="paper"), a)
     assert lim["cfl"] == pytest.approx(0.25 * h / (c_eff + v), rel=1e-12)
     assert lim["viscous"] == pytest.approx(0.125 * h * h / (k * theta / RHO_S), rel=1e-12)
     assert lim["force"] == pytest.approx(0.25 * math.sqrt(h / a), rel=1e-12)
     # PHYSICS.md, Table 1 (paper form): CFL 4.0e-5 s with c_eff, 5.2e-5 s with c
     assert lim["cfl"] == pytest.approx(4.0e-5, rel=0.02)
-    assert limits.classical_limits(h, theta, RHO_S, k, GA, GB, v, form="consistent")["cfl"] == pytest.approx(5.2e-5, rel=0.02)
+    assert limits.classical_limits(theta, v, material, lattice, limits.Terms(form="consistent"))["cfl"] == \
+        pytest.approx(5.2e-5, rel=0.02)
 
 
 # ---- the linearised operator against the Jacobian of the real loops ------------------------------------
@@ -154,8 +158,8 @@ def test_patch_amplification_leaves_the_unit_disk_at_the_predicted_dt(integrator
     (paper: x += dt v + dt^2 a / 2, v += dt a; midpoint: I + dt J + (dt J)^2 / 2)."""
     sim = patch(theta0, "paper", k=k)
     jx, jv, theta = jacobian(sim)
-    dt, term = limits.linear_limit(theta, k, RHO_S, GA, GB, sim.cfg.h, (DX, DX), integrator=integrator,
-                                   nkappa=N // 2 + 1)
+    dt, term = limits.linear_limit(theta, limits.Material(RHO_S, k, GA, GB), limits.Lattice(sim.cfg.h, (DX, DX)),
+                                   integrator=integrator, nkappa=N // 2 + 1)
     n2 = jx.shape[0]
     J = np.block([[np.zeros((n2, n2)), np.eye(n2)], [jx, jv]])
     def radius(t):

@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph.parallel.slab_ring import DecompositionError, SlabRing, fits, max_ranks, slab_bounds
+from parsph.errors import DecompositionError
+from parsph.parallel.slab_ring import SlabRing
+from parsph.parallel.slabs import fits, max_ranks, slab_bounds
 from parsph.sph.neighbours import CELLS_PER_CUTOFF, Grid
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
@@ -97,8 +99,14 @@ def test_max_ranks_agrees_with_slabring(Ly):
 
 def test_paper_case_rank_limit():
     """The paper's box (Ly = 0.01 m, h = 2.5e-4 m, skin 0.4 h): slabs of at least 1.5 cutoffs, so at most
-    0.01 / (1.5 * 6e-4) = 11 ranks (the ghost rows are M = 2 rows of 6e-4 m / 2 beyond a slab's own)."""
+    0.01 / (1.5 * 6e-4) = 11 ranks (the ghost rows are M = 2 rows of 6e-4 m / 2 beyond a slab's own).
+    The same count for a run (case.max_ranks, what validate_scenes prints) at the paper's L_y and shorter."""
+    from parsph.setup import config
+    from parsph.simulation.case import max_ranks as run_max_ranks
+    from conftest import PAPER_TOML
     assert max_ranks(0.01, CUT, M) == 11
+    for ly, most in ((0.01, 11), (0.005, 5), (0.002, 2), (0.001, 1)):
+        assert run_max_ranks(config.load(str(PAPER_TOML), [f"domain.Ly={ly}"])) == most == math.floor(ly / 9e-4)
 
 
 # ---- SlabRing ----------------------------------------------------------------------

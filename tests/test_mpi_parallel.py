@@ -23,7 +23,8 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.sph.particles import FLUID, MOVING_WALL, WALL
-from parsph.parallel.slab_ring import DecompositionError, min_length
+from parsph.errors import DecompositionError
+from parsph.parallel.slabs import min_length
 from parsph.sph.neighbours import CELLS_PER_CUTOFF
 from parsph.simulation.solver import Simulation
 

@@ -26,6 +26,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from parsph.sph.neighbours import CELLS_PER_CUTOFF, CellBox, CellOrder, block_spread
 from parsph.sph.particles import FLUID
 from parsph.simulation.solver import Simulation
@@ -84,8 +85,8 @@ def test_sheared_couette_from_the_impulsive_start():
     """The paper case (short box, N_x = 20) for 300 steps of 1e-5 s: the plate moves 3 mm, 4.8 cells."""
     raw = tomllib.loads((ROOT / "run" / "couette_paper.toml").read_text())
     del raw["numerics"]["h"]
-    config.apply_overrides(raw, ["numerics.Nx=20", "numerics.h_over_dx=1.25", "domain.Ly=0.004", "output.times=[]"])
-    cfg = config.build(raw, config.dumps(raw))
+    cfg = config.build(RunFile(raw).override(["numerics.Nx=20", "numerics.h_over_dx=1.25", "domain.Ly=0.004",
+                                              "output.times=[]"]))
     sim, checked = run_and_compare(cfg, 300)
     assert checked > 100_000
     assert 2 <= sim.rebuilds < 300  # the list was reused, and rebuilt

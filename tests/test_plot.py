@@ -8,7 +8,7 @@ import shutil
 
 import pytest
 
-from parsph.cli.command import profile_png
+from parsph.cli.report import profile_png
 
 from conftest import PAPER_TOML, run_cli
 

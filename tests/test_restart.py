@@ -215,7 +215,7 @@ FREE_CHANGES = {
 
 
 def test_every_physics_key_is_covered():
-    from parsph.setup.config import SCHEMA
+    from parsph.setup.schema import SCHEMA
     physics = {f"{s}.{k}" for s, keys in SCHEMA.items() if s not in ("output", "checks") for k in keys}
     # h_over_dx: the paper file gives h (both at once is an error); allow_unstable_dt changes no trajectory
     untested = physics - set(PHYSICS_CHANGES) - {"numerics.h_over_dx", "numerics.allow_unstable_dt"}
@@ -226,11 +226,12 @@ def test_every_physics_key_is_covered():
 @pytest.mark.parametrize("key", sorted(PHYSICS_CHANGES))
 def test_restart_refuses_a_physics_change(runs, key):
     """In process (run.restart_state): UsageError naming the key, for every physics key."""
-    from parsph.cli import exits, run
+    from parsph.cli import run
+    from parsph.errors import UsageError
     from parsph.setup import config
     snap = runs("half", "paper", 1) / name(0)
     cfg = config.load(C.PAPER, [*FULL, f"{key}={PHYSICS_CHANGES[key]}"])
-    with pytest.raises(exits.UsageError) as e:
+    with pytest.raises(UsageError) as e:
         run.restart_state(cfg, str(snap))
     msg = str(e.value)
     assert "\n" not in msg

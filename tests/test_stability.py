@@ -3,9 +3,10 @@
 Runs are the real solver on one rank (MPI.COMM_SELF) in a short periodic box
 (L_y = 8 h: the flow is 1-D in x), 2,000 steps where the issue asks for them;
 the blow-up tests launch ``mpirun -n 2``. A run is *stable* by the objective
-criteria of scripts/stability_map.py, checked at every step: all values
-finite, no fluid particle beyond a wall plane, |theta - theta_0| / theta_0 <=
-THETA_FRAC, fluid kinetic energy <= 1/2 M V_w^2.
+criteria of the stability map (the run-time checks' criteria, measured at every
+step by parsph.studies.stability.Recorder): all values finite, no fluid particle
+beyond a wall plane, |theta - theta_0| / theta_0 <= THETA_FRAC, fluid kinetic
+energy <= 1/2 M V_w^2.
 
 The limit a run gets (parsph.physics.limits: config.build's refusal, the first
 dt = "auto" and Simulation.stable_dt) is checked here against the continuum
@@ -27,12 +28,14 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.setup.config import ConfigError
+from parsph.studies import cases
+from parsph.studies.stability import Recorder
+from parsph.errors import ConfigError, GuardError
 from parsph.output import output_files, read_profile
-from parsph.sph.particles import FLUID
-from parsph.simulation.solver import CHECKS, GuardError, Simulation
+from parsph.simulation.guards import CHECKS
+from parsph.simulation.solver import Simulation
 
-from conftest import PAPER_TOML, paper_raw, run_cli
+from conftest import PAPER_TOML, run_cli
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
@@ -65,60 +68,25 @@ def k_for(Re, theta0):
 
 
 def make_cfg(theta0=0.35, k=1.0, nx=50, dt="auto", steps=STEPS, times=(), extra=()):
-    """The paper case with h = 1.25 dx, L_y = 8 h; t_end = steps * dt (auto: the run's limit at t = 0)."""
-    raw = paper_raw()
-    raw["numerics"].pop("h")
-    h = 1.25 * L / nx
-    def build(t_end):
-        r = {s: dict(v) for s, v in raw.items()}
-        config.apply_overrides(r, over + [f"output.t_end={t_end!r}"])
-        return config.build(r, config.dumps(r))
-    over = [f"material.theta0={theta0!r}", f"material.k={k!r}", f"numerics.Nx={nx}", "numerics.h_over_dx=1.25",
-            f"domain.Ly={8 * h!r}", f"numerics.dt={dt!r}" if dt != "auto" else 'numerics.dt="auto"',
-            f"output.times={list(times)!r}", "output.progress_interval=0", "checks.every=1", *extra]
-    dt0 = build(1.0).dt if dt == "auto" else dt   # auto: the run's limit at t = 0
-    return build(steps * dt0)
-
-
-class Probe(Simulation):
-    """The solver, with the stability criteria recorded at every check (checks.every = 1)."""
-
-    def __init__(self, cfg):
-        super().__init__(cfg, MPI.COMM_SELF)
-        self.worst = {"theta_dev": 0.0, "ke_ratio": 0.0, "vy_over": 0.0, "vy_under": 0.0}
-        self.fired = {}
-
-    def check(self):
-        ps, cfg, n = self.ps, self.cfg, self.ps.n_own
-        fl = ps.kind[:n] == FLUID
-        pos, vel, acc, th, m = ps.pos[:n][fl], ps.vel[:n][fl], ps.acc[:n][fl], ps.theta[:n][fl], ps.mass[:n][fl]
-        with np.errstate(all="ignore"):
-            dev = float(np.max(np.abs(th - cfg.theta0))) / cfg.theta0
-            ke = 0.5 * float((m * (vel ** 2).sum(axis=1)).sum()) / (0.5 * float(m.sum()) * cfg.V_w ** 2)
-            now = {"nonfinite": not (np.isfinite(pos).all() and np.isfinite(vel).all() and np.isfinite(acc).all()),
-                   "wall": bool(((pos[:, 0] < 0) | (pos[:, 0] > cfg.L)).any()),
-                   "theta": not dev <= THETA_FRAC, "energy": not ke <= 1.0}
-            w = self.worst
-            w["theta_dev"] = max(w["theta_dev"], dev)
-            w["ke_ratio"] = max(w["ke_ratio"], ke)
-            w["vy_over"] = max(w["vy_over"], float(vel[:, 1].max()) / cfg.V_w - 1.0)
-            w["vy_under"] = max(w["vy_under"], -float(vel[:, 1].min()) / cfg.V_w)
-        for c, bad in now.items():
-            if bad:
-                self.fired.setdefault(c, self.step)
-        super().check()
+    """The paper case with h = 1.25 dx, L_y = 8 h (cases.couette); t_end = steps * dt (auto: the run's limit
+    at t = 0)."""
+    return cases.couette(nx, ly_in_h=8, dt=dt, steps=steps, overrides=[
+        f"material.theta0={theta0!r}", f"material.k={k!r}", f"output.times={list(times)!r}", "checks.every=1", *extra])
 
 
 def run_probe(cfg):
-    sim = Probe(cfg)
-    sim.run()
-    return sim
+    """The solver on one rank with the stability criteria recorded at every step (the guard's, measured by
+    studies.stability.Recorder, accelerations included): (simulation, recorder)."""
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    rec = Recorder(cfg, THETA_FRAC, acc=True)
+    sim.run(observe=rec)
+    return sim, rec
 
 
-def assert_stable(sim, steps=STEPS):
+def assert_stable(sim, rec, steps=STEPS):
     assert sim.step >= steps, sim.step
-    assert sim.fired == {}, sim.fired
-    assert sim.worst["theta_dev"] <= THETA_FRAC and sim.worst["ke_ratio"] <= 1.0, sim.worst
+    assert rec.fired == {}, rec.fired
+    assert rec.max_theta_dev <= THETA_FRAC and rec.max_ke_ratio <= 1.0, (rec.max_theta_dev, rec.max_ke_ratio)
 
 
 # ---- theta_0 = 0.7 -----------------------------------------------------------------------------------
@@ -163,8 +131,8 @@ def test_dense_auto_is_stable_for_2000_steps():
     cfg = make_cfg(theta0=0.7, k=1.0)
     assert cfg.dt_auto and cfg.dt == pytest.approx(damping_07(), rel=0.02)
     assert min(cfg.limits, key=cfg.limits.get) == "damping"
-    sim = run_probe(cfg)
-    assert_stable(sim)
+    sim, rec = run_probe(cfg)
+    assert_stable(sim, rec)
     # theta_max grows: dt shrinks, 2,000 nominal steps take more
     assert sim.dt <= cfg.dt and sim.step <= 1.6 * STEPS, (sim.dt, sim.step)
 
@@ -173,8 +141,8 @@ def test_dense_auto_with_the_midpoint_integrator_is_stable_for_2000_steps():
     """The workaround that works today: the second-order integrator at dt = "auto" (measured: no check fires)."""
     cfg = make_cfg(theta0=0.7, k=1.0, extra=['numerics.integrator="midpoint"'])
     assert cfg.dt > 2 * damping_07() and min(cfg.limits, key=cfg.limits.get) == "acoustic"
-    sim = run_probe(cfg)
-    assert_stable(sim)
+    sim, rec = run_probe(cfg)
+    assert_stable(sim, rec)
     assert 0.5 * cfg.dt < sim.dt <= cfg.dt   # auto shrinks dt as theta_max grows, but not by much
 
 
@@ -189,8 +157,8 @@ def test_dilute_auto_is_stable(Re, bound, record_property):
     """theta_0 = 0.05 at Re = 400 (k = 1), Re = 1 and Re = 2000: dt = "auto" is stable for 2,000 steps."""
     cfg = make_cfg(theta0=0.05, k=k_for(Re, 0.05))
     assert cfg.reynolds == pytest.approx(Re, rel=1e-9)
-    sim = run_probe(cfg)
-    assert_stable(sim)
+    sim, rec = run_probe(cfg)
+    assert_stable(sim, rec)
     emax, erms = sim.profile()["err"]
     record_property("err_max", emax)
     record_property("err_rms", erms)
@@ -227,7 +195,8 @@ ALL_RANKS = textwrap.dedent("""
     from mpi4py import MPI
     from parsph.setup import config
     from parsph.output import Output
-    from parsph.simulation.solver import GuardError, Simulation
+    from parsph.errors import GuardError
+    from parsph.simulation.solver import Simulation
     comm = MPI.COMM_WORLD
     cfg = config.load(sys.argv[1], sys.argv[3:])
     sim = Simulation(cfg, comm)
@@ -322,8 +291,10 @@ IMPULSIVE = [(0.35, 1.0, 1e-5), (0.35, 1.0, "auto"), (0.05, 1.0, "auto"), (0.05,
 @pytest.mark.parametrize("theta0, k, dt", IMPULSIVE, ids=[f"theta{t:g}-k{k:g}-dt{d}" for t, k, d in IMPULSIVE])
 def test_impulsive_start_is_bounded(theta0, k, dt):
     """The first 50 steps after the plate starts: no fluid v_y above (1 + 1%) V_w or below -1% V_w."""
-    sim = run_probe(make_cfg(theta0=theta0, k=k, dt=dt, steps=50, extra=["checks.every=1"]))
-    print(f"theta0={theta0:g} k={k:g} dt={dt}: max v_y/V_w - 1 = {sim.worst['vy_over']:.3g}, "
-          f"max -v_y/V_w = {sim.worst['vy_under']:.3g} over {sim.step} steps")
-    assert sim.step >= 50 and sim.fired == {}, sim.fired
-    assert sim.worst["vy_over"] <= OVERSHOOT and sim.worst["vy_under"] <= OVERSHOOT, sim.worst
+    sim, rec = run_probe(make_cfg(theta0=theta0, k=k, dt=dt, steps=50, extra=["checks.every=1"]))
+    V_w = sim.cfg.V_w
+    over, under = max(rec.vy_max / V_w - 1.0, 0.0), max(-rec.vy_min / V_w, 0.0)
+    print(f"theta0={theta0:g} k={k:g} dt={dt}: max v_y/V_w - 1 = {over:.3g}, "
+          f"max -v_y/V_w = {under:.3g} over {sim.step} steps")
+    assert sim.step >= 50 and rec.fired == {}, rec.fired
+    assert over <= OVERSHOOT and under <= OVERSHOOT, (over, under)

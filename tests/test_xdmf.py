@@ -21,6 +21,7 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph import output
+from parsph.output.restart import rows_in
 from parsph.physics.analytic import couette_velocity
 
 from xdmf_check import check_sidecar
@@ -174,7 +175,7 @@ def test_a_narrow_slab_reads_only_nearby_rows(tmp_path):
     with h5py.File(path, "r") as f:
         widest = int(np.diff(f["layout/bin_start"][0]).max())
         for lo, hi in ((0.001, 0.0011), (0.0, 0.0001), (0.0039, 0.004), (0.002, 0.002)):
-            rows = sum(b - a for a, b in output._rows_in(f, MPI.COMM_SELF, lo, hi, False)[0])
+            rows = sum(b - a for a, b in rows_in(f, MPI.COMM_SELF, lo, hi, False)[0])
             inside = int(((y >= lo) & (y < hi)).sum())
             assert inside <= rows <= inside + 2 * widest, (lo, hi, rows, inside)
 

@@ -1,6 +1,10 @@
 """The ``parsph`` command: the parser (:mod:`.command`) and one module per command (:mod:`.run`,
-:mod:`.report`; converge's in :mod:`parsph.studies.converge`), the exit codes (:mod:`.exits`).
+:mod:`.converge`, :mod:`.report`), the exit codes (:mod:`.exits`).
 
-The top layer: may import every other.
+The top layer: may import every other. Modules that start MPI (the solver, the
+runs) are imported inside the commands that need them: ``parsph check`` and
+``parsph plot`` must not start MPI.
 """
-from .command import main  # noqa: F401  (the console script parsph.cli:main)
+from .command import main
+
+__all__ = ["main"]  # the console script parsph.cli:main

@@ -5,9 +5,9 @@
     parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
     parsph plot OUTPUT [--png FILE]
 
-The commands live in :mod:`parsph.cli.run` (run) and
-:mod:`parsph.cli.report` (check, plot); ``converge`` in
-:mod:`parsph.studies.converge`; the exit codes in :mod:`parsph.cli.exits`.
+The commands live in :mod:`parsph.cli.run` (run), :mod:`parsph.cli.converge`
+(converge) and :mod:`parsph.cli.report` (check, plot); the exit codes in
+:mod:`parsph.cli.exits`.
 
 Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
 2 bad input (run file, options, output path); 3 a run-time check failed;
@@ -16,10 +16,11 @@ Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
 import argparse
 import sys
 
-from .report import cmd_check, cmd_plot, print_table, profile_png, reference_lines  # noqa: F401
-from .run import (RESTART_FREE, fits_in_memory, restart_state, run_reporting,  # noqa: F401
-                          Signals, cmd_run)
-from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL, UsageError, agree  # noqa: F401
+from parsph.errors import UsageError
+from .converge import cmd_converge
+from .exits import EXIT_BAD_INPUT
+from .report import cmd_check, cmd_plot
+from .run import cmd_run
 
 
 def build_parser():
@@ -66,12 +67,7 @@ def build_parser():
 def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
-        if args.command == "run":
-            return cmd_run(args)
-        if args.command == "converge":
-            from parsph.studies.converge import cmd_converge
-            return cmd_converge(args)
-        return {"check": cmd_check, "plot": cmd_plot}[args.command](args)
+        return {"run": cmd_run, "converge": cmd_converge, "check": cmd_check, "plot": cmd_plot}[args.command](args)
     except UsageError as e:
         print(f"parsph: error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -4,43 +4,45 @@ import os
 import re
 import sys
 
-from .exits import EXIT_ERROR, UsageError
+from parsph.errors import ConfigError, UsageError
+from .exits import EXIT_ERROR
 
 
-def _current_scales(p):
-    """Per output time, what is left of a decaying flow (the scene's current_scale), else None."""
-    from parsph.setup.config import ConfigError, loads
-    from parsph.setup.scenes import error_scale
+def _decaying(p):
+    """The run of a decaying flow (its scene has a current_scale), else None."""
+    from parsph.setup.config import loads
     try:
         cfg = loads(p["attrs"]["run_file"])
     except (ConfigError, KeyError):
         return None
-    if cfg.scene.current_scale is None:
-        return None
-    return [error_scale(cfg, float(t)) for t in p["time"]]
+    return cfg if cfg.scene.current_scale is not None else None
 
 
 def print_table(path, tol=None):
     """Print the error table of a run's outputs; return the worst max error.
 
-    For a decaying flow the errors are relative to what is left of it at each time."""
+    For a decaying flow the errors are relative to what is left of it at each time
+    (``RunConfig.error_scale``, as the files' err_max), and also to its initial amplitude."""
     from parsph.output import read_profile
     from parsph.sph.profiles import errors
     p = read_profile(path)
     key = p["attrs"].get("error_field", "vy")
     field = {"vy": "v_y", "theta": "theta"}.get(key, "v_y")
-    scale = p["attrs"].get("error_scale", p["attrs"].get("V_w", 1.0))
-    now = _current_scales(p)
-    if now is None:
+    cfg = _decaying(p)
+    if cfg is None:
+        scale = p["attrs"].get("error_scale", p["attrs"].get("V_w", 1.0))
         print(f"errors of {field} against the reference, relative to {scale:.4g}")
         print(f"{'t [s]':>10} {'max error':>12} {'rms error':>12}")
         rows = [(t, emax, erms, "") for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"])]
     else:
+        initial = cfg.error_scale(0.0)
         print(f"errors of {field} against the reference, relative to the amplitude left at each time "
-              f"(initially {scale:.4g})")
+              f"(initially {initial:.4g})")
         print(f"{'t [s]':>10} {'amplitude':>12} {'max error':>12} {'rms error':>12} {'max / initial':>13}")
-        rows = [(t, *errors(f, fe, s), f" {s:>12.4g}", f" {emax:>13.3e}") for t, f, fe, s, emax
-                in zip(p["time"], p[key], p[key + "_exact"], now, p["err_max"])]
+        rows = []
+        for t, f, fe in zip(p["time"], p[key], p[key + "_exact"]):
+            s = cfg.error_scale(float(t))
+            rows.append((t, *errors(f, fe, s), f" {s:>12.4g}", f" {errors(f, fe, initial)[0]:>13.3e}"))
     worst = 0.0
     for t, emax, erms, amp, *initial in rows:
         flag = "" if tol is None or emax <= tol else "  > tol"

@@ -18,7 +18,8 @@ is a restart point. In a file:
     /profile/count         (Nx,)          fluid particles per bin
     /profile/vy_exact, theta_exact (Nx,)  the scene's reference (NaN where it has none)
     /profile attrs         err_max, err_rms: |f - f_exact| / scale of the scene's error field
-                           (root attrs error_field, error_scale), max and RMS over bins
+                           (root attrs error_field, error_scale: the scale at this time, for a
+                           decaying flow the amplitude left), max and RMS over bins
     /particles/{id, kind, mass, position, velocity, theta}   (N,), (N,), (N,), (N, dim), (N, dim), (N,)
                            mass in kg/m in 2-D (per metre of z), kg in 3-D (MASS_UNITS)
     /particles/velocity_xyz (N, 3) f4      2-D only: (v_x, v_y, 0) for ParaView's glyphs
@@ -53,7 +54,7 @@ from .files import last_snapshot, output_files, read_profile, read_snapshot
 from .hdf5 import SERIAL_ENV, collective_dxpl, parallel_hdf5_available, read_rows, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS,
                      RESTART_FIELDS, UNITS)
-from .restart import _rows_in, read_particles, read_state  # noqa: F401  (_rows_in: tests count the rows read)
+from .restart import read_particles, read_state
 from .write import Frame, Output, output_name
 from .xdmf import snapshot_entry, write_xdmf, xdmf_grid
 

@@ -24,7 +24,7 @@ def read_state(path):
         return {"attrs": dict(f.attrs), "path": path}
 
 
-def _rows_in(f, comm, lo, hi, parallel):
+def rows_in(f, comm, lo, hi, parallel):
     """Ascending, disjoint row ranges (a, b) of the file that hold every particle with
     lo <= y < hi (the bins of the writer ranks' rows that overlap [lo, hi)), and the
     writer ranks' row offsets (None for a file without /layout)."""
@@ -88,7 +88,7 @@ def read_particles(path, comm, lo, hi, dxpl=None):
     dxpl = (dxpl or collective_dxpl()) if parallel else None
     g = f["particles"]
     n = g["id"].shape[0]
-    ranges, offset = _rows_in(f, comm, lo, hi, parallel)
+    ranges, offset = rows_in(f, comm, lo, hi, parallel)
     size = int(np.clip(-(-n // comm.size), *READ_ROWS))
     rounds = _rounds(ranges, size)
     count = comm.allreduce(len(rounds), op=_mpi_max()) if parallel else len(rounds)

@@ -83,7 +83,7 @@ class Output:
         else:
             f = h5py.File(part, "w") if self.root else None
         field = cfg.scene.error_field
-        scale = cfg.velocity_scale if field == "vy" else cfg.theta0
+        scale = cfg.error_scale(frame.t)  # what the profile's errors are relative to
         if f is not None:
             f.attrs.update({
                 "parsph_version": __version__, "run_file": cfg.text,

@@ -34,7 +34,8 @@ from . import native_mpi
 from .halo_rows import copy_images, pack_forward, pack_ghosts, pack_scalar, unpack_forward, unpack_ghosts, unpack_scalar
 from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
 from parsph.sph.neighbours import CellBox
-from .slabs import DecompositionError, cell_rows, fits, max_ranks, min_length, slab_bounds  # noqa: F401
+from parsph.errors import DecompositionError
+from .slabs import cell_rows, fits, max_ranks, min_length, slab_bounds
 
 TAG_MOVE_UP, TAG_MOVE_DOWN = 13, 14
 # the fields a ghost or image carries (halo_rows.pack_ghosts, copy_images)

@@ -14,10 +14,6 @@ def slab_bounds(Ly, P):
     return b
 
 
-class DecompositionError(Exception):
-    """A decomposition that cannot work (slabs too thin for the ghost rows)."""
-
-
 def cell_rows(bounds, side, ny):
     """(first, last) cell rows touched by each slab (the last one conservatively, for rounding)."""
     first = np.clip(np.floor(bounds[:-1] / side).astype(np.int64), 0, ny - 1)

@@ -9,9 +9,10 @@ The series is truncated where the factor exp(-n^2 pi^2 nu t / L^2) (times the
 2/(n pi) amplitude) falls below ``tol`` relative to V_w, so the cut-off grows
 as t -> 0 (about 150 terms at t = 1e-4 s for Table 1, 46,000 at 1e-9 s).
 """
+from functools import lru_cache
 import math
 
-from .closures import modulus
+from .closures import G_A, G_B, modulus
 
 import numpy as np
 
@@ -77,7 +78,7 @@ def poiseuille_velocity(x, t, nu, L, F, tol=1e-17):
         n += 2
 
 
-def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=4000, form="closure"):
+def settling_equilibrium(x, theta0, L, rho_s, g, G_a=G_A, G_b=G_B, steps=4000, form="closure"):
     """Volume fraction of a granular column at rest between a floor (x = 0) and a lid (x = L).
 
     Hydrostatic balance with grad p_s = G(theta) grad theta and gravity g (> 0)
@@ -91,30 +92,50 @@ def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=400
     grad(G theta) = G (1 + G_a ln(10) theta) grad theta, a stiffer column.
 
     Points x outside [0, L] get the same balance continued beyond the plates
-    (the values the ghost wall particles there hold).
+    (the values the ghost wall particles there hold). The bisection (seconds:
+    RK4 in Python) is done once per column and kept (:func:`_settled_column`).
     """
-    stiff = G_a * math.log(10.0) if form == "paper" else 0.0
+    args = (rho_s, g, G_a, G_b, G_a * math.log(10.0) if form == "paper" else 0.0)
+    theta_b, xs, th = _settled_column(theta0, L, rho_s, g, G_a, G_b, steps, form)
+    x = np.asarray(x, dtype=float)
+    lo_x, hi_x = min(float(x.min(initial=0.0)), 0.0), max(float(x.max(initial=L)), L)
+    if lo_x < 0.0:  # below the floor: the balance continued downwards
+        xb, tb = _column(theta_b, lo_x, max(1, int(steps * -lo_x / L)), *args)
+        xs, th = np.concatenate([xb[:0:-1], xs]), np.concatenate([tb[:0:-1], th])
+    if hi_x > L:  # above the lid
+        xt, tt = _column(th[-1], hi_x - L, max(1, int(steps * (hi_x - L) / L)), *args)
+        xs, th = np.concatenate([xs, L + xt[1:]]), np.concatenate([th, tt[1:]])
+    return np.interp(x, xs, th)
 
+
+def _column(theta_b, end, n, rho_s, g, G_a, G_b, stiff):
+    """RK4 of G(theta) (1 + stiff theta) dtheta/dx = -rho_s theta g from theta_b at x = 0 to x = end
+    (either side of 0) in n steps: (x, theta)."""
     def rhs(th):
         return -rho_s * g * th / (modulus(th, G_a, G_b) * (1.0 + stiff * th))
 
-    def column(theta_b, end=L, n=steps):
-        """RK4 from theta_b at x = 0 to x = end (either side of 0)."""
-        xs = np.linspace(0.0, end, n + 1)
-        th = np.empty_like(xs)
-        th[0] = theta_b
-        dx = end / n
-        for i in range(n):
-            t = th[i]
-            k1 = rhs(t)
-            k2 = rhs(t + 0.5 * dx * k1)
-            k3 = rhs(t + 0.5 * dx * k2)
-            k4 = rhs(t + dx * k3)
-            th[i + 1] = t + dx / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-        return xs, th
+    xs = np.linspace(0.0, end, n + 1)
+    th = np.empty_like(xs)
+    th[0] = theta_b
+    dx = end / n
+    for i in range(n):
+        t = th[i]
+        k1 = rhs(t)
+        k2 = rhs(t + 0.5 * dx * k1)
+        k3 = rhs(t + 0.5 * dx * k2)
+        k4 = rhs(t + dx * k3)
+        th[i + 1] = t + dx / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return xs, th
+
+
+@lru_cache(maxsize=32)
+def _settled_column(theta0, L, rho_s, g, G_a, G_b, steps, form):
+    """(floor value, x, theta(x)) on [0, L] of the column holding theta0 L: the floor value bisected on
+    the mass (read-only arrays, shared by every call with these arguments)."""
+    args = (rho_s, g, G_a, G_b, G_a * math.log(10.0) if form == "paper" else 0.0)
 
     def mass(theta_b):
-        xs, th = column(theta_b)
+        xs, th = _column(theta_b, L, steps, *args)
         return np.sum(0.5 * (th[1:] + th[:-1]) * np.diff(xs))
 
     lo, hi = theta0, 1.0
@@ -127,15 +148,9 @@ def settling_equilibrium(x, theta0, L, rho_s, g, G_a=8.76, G_b=-1.183, steps=400
         else:
             hi = mid
     theta_b = 0.5 * (lo + hi)
-    xs, th = column(theta_b)
+    xs, th = _column(theta_b, L, steps, *args)
     if th[-1] < 1e-3 * theta0:
         raise ValueError("the column does not reach the lid (free surface)")
-    x = np.asarray(x, dtype=float)
-    lo_x, hi_x = min(float(x.min(initial=0.0)), 0.0), max(float(x.max(initial=L)), L)
-    if lo_x < 0.0:  # below the floor: the balance continued downwards
-        xb, tb = column(theta_b, lo_x, max(1, int(steps * -lo_x / L)))
-        xs, th = np.concatenate([xb[:0:-1], xs]), np.concatenate([tb[:0:-1], th])
-    if hi_x > L:  # above the lid
-        xt, tt = column(th[-1], hi_x - L, max(1, int(steps * (hi_x - L) / L)))
-        xs, th = np.concatenate([xs, L + xt[1:]]), np.concatenate([th, tt[1:]])
-    return np.interp(x, xs, th)
+    xs.setflags(write=False)
+    th.setflags(write=False)
+    return theta_b, xs, th

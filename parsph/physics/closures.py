@@ -15,10 +15,12 @@ import numpy as np
 from numba import njit
 
 LN10 = math.log(10.0)
+G_A, G_B = 8.76, -1.183  # G = 10^(G_A theta + G_B) Pa (Jayaswal 1991; PHYSICS.md)
 
 
 @njit(cache=True)
-def _modulus(theta, a, b):
+def modulus_unchecked(theta, a, b):
+    """G(theta) = 10^(a theta + b) for numba code, without :func:`modulus`'s overflow check."""
     return math.exp((a * theta + b) * LN10)  # 10^x as exp(x ln 10): a third of pow's cost in the loops
 
 
@@ -28,13 +30,13 @@ def half_modulus(theta, a):
     return math.exp(0.5 * a * LN10 * theta)
 
 
-def modulus(theta, a=8.76, b=-1.183):
-    """G(theta) [Pa], for a number or an array; the one definition of G (numba code calls ``_modulus``).
+def modulus(theta, a=G_A, b=G_B):
+    """G(theta) [Pa], for a number or an array; the one definition of G (numba code calls :func:`modulus_unchecked`).
 
     Raises OverflowError where G does not fit a float (as Python's own power does)."""
     if np.ndim(theta):
         return np.array([modulus(float(t), a, b) for t in np.ravel(theta)]).reshape(np.shape(theta))
-    g = _modulus(float(theta), float(a), float(b))
+    g = modulus_unchecked(float(theta), float(a), float(b))
     if not math.isfinite(g) and math.isfinite(theta) and math.isfinite(a) and math.isfinite(b):
         raise OverflowError(f"G = 10^({a:g} * {theta:g} + {b:g}) does not fit a float")
     return g

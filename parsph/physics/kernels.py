@@ -110,22 +110,6 @@ _WENDLAND_23 = Kernel("wendland_c2", wendland_w, wendland_dwdr,
 KERNEL_NAMES = ("cubic_spline", "wendland_c2")
 
 
-def lattice_sum(kernel, h, spacing):
-    """sum_j W(|r_j|, h) over the points of an infinite rectangular lattice around one of them.
-
-    ``spacing`` gives the lattice step per dimension; times the particle mass
-    this is the summation density Eq. (3) of a particle inside the lattice.
-    """
-    import numpy as np
-    dim = len(spacing)
-    reach = kernel.support * h
-    axes = [np.arange(-int(reach / s) - 1, int(reach / s) + 2) * s for s in spacing]
-    grids = np.meshgrid(*axes, indexing="ij")
-    r = np.sqrt(sum(g * g for g in grids)).ravel()
-    norm = kernel.norm(h, dim)
-    return float(sum(kernel.w(float(x), 1.0 / h, norm) for x in np.sort(r)))
-
-
 def get_kernel(name, dim):
     """The kernel called ``name`` in ``dim`` dimensions."""
     if name == "cubic_spline":

@@ -1,4 +1,6 @@
-"""Lattice sums of a kernel in 2-D and 3-D: how far the discrete operators are from their continuum values.
+"""Lattice sums of a kernel in 2-D and 3-D: the summation density of a lattice, and how far the discrete
+operators are from their continuum values. :func:`lattice_points` is the one builder of a lattice's
+neighbour offsets (here and in :mod:`parsph.physics.limits`).
 
 At a fixed ratio h/dx the SPH sums over a lattice do not converge to the
 continuum integrals as dx -> 0; their ratio to the continuum value depends on
@@ -20,11 +22,30 @@ on which both sums vary with s.
 Pure numpy on the kernels of :mod:`parsph.physics.kernels` (their numba functions are
 called as plain functions); no MPI.
 """
-import math
 
 import numpy as np
 
 from .kernels import get_kernel
+
+
+def lattice_points(spacing, reach):
+    """Integer indices [n, dim] of a rectangular lattice's points around one of them: every point within
+    ``reach`` (in the units of ``spacing``, the step per dimension) and a margin, the box -m_d .. m_d with
+    m_d = int(reach / s_d) + 1, in C order (the first axis slowest). Times ``spacing``: the offsets."""
+    axes = [np.arange(-int(reach / s) - 1, int(reach / s) + 2) for s in spacing]
+    return np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+
+
+def lattice_sum(kernel, h, spacing):
+    """sum_j W(|r_j|, h) over the points of an infinite rectangular lattice around one of them.
+
+    ``kernel``: a :class:`parsph.physics.kernels.Kernel`; ``spacing`` the lattice step per dimension.
+    Times the particle mass this is the summation density Eq. (3) of a particle inside the lattice.
+    """
+    R = lattice_points(spacing, kernel.support * h) * np.asarray(spacing, dtype=float)
+    r = np.sqrt((R * R).sum(axis=1))
+    norm = kernel.norm(h, len(spacing))
+    return float(sum(kernel.w(float(x), 1.0 / h, norm) for x in np.sort(r)))
 
 
 def sheared_lattice_sums(kernel, h_over_dx, shift=0.0, dim=2, dy=1.0, dz=1.0):
@@ -43,16 +64,11 @@ def sheared_lattice_sums(kernel, h_over_dx, shift=0.0, dim=2, dy=1.0, dz=1.0):
     h = float(h_over_dx)  # in units of dx
     norm = k.norm(h, dim)
     reach = k.support * h
-    n = int(math.ceil(reach)) + 1
-    ny = int(math.ceil(reach / dy)) + 1
-    axes = [np.arange(-n, n + 1), np.arange(-ny - 1, ny + 2)]
-    if dim == 3:
-        nz = int(math.ceil(reach / dz)) + 1
-        axes.append(np.arange(-nz, nz + 1))
-    grid = np.meshgrid(*axes, indexing="ij")
-    x = grid[0].astype(float)
-    y = (grid[1] + (x * shift - np.floor(x * shift))) * dy
-    r = np.sqrt(x * x + y * y + ((grid[2] * dz) ** 2 if dim == 3 else 0.0))
+    # the unsheared box covers the sheared points within reach: a shift of y by frac < 1 rows needs no more
+    idx = lattice_points((1.0, dy, dz)[:dim], reach)
+    x = idx[:, 0].astype(float)
+    y = (idx[:, 1] + (x * shift - np.floor(x * shift))) * dy
+    r = np.sqrt(x * x + y * y + ((idx[:, 2] * dz) ** 2 if dim == 3 else 0.0))
     vol = dy * (dz if dim == 3 else 1.0)
     inside = r < reach
     x, r = x[inside], r[inside]

@@ -45,18 +45,56 @@ compares the prediction with the measured map. Two classical limits are kept
 beside it: advection, dt <= 0.5 h / |v|_max (a particle moves at most h/4 in
 half a step: the midpoint skin of the solver's halo), and a body force,
 dt <= 0.25 sqrt(h / |a|_max) (Monaghan 1992).
+
+The functions take their arguments in three groups, as the passes do:
+:class:`Material` (rho_s, k, G_a, G_b), :class:`Lattice` (h, the lattice
+steps, the kernel, the walls' beta_max) and :class:`Terms` (which terms of
+Eq. (5) and the pressure form); :func:`groups` makes them from a run.
 """
 from functools import lru_cache
 import math
+from typing import NamedTuple, Optional
 
 import numpy as np
 
 from . import closures
 from .kernels import get_kernel
+from .lattice_sums import lattice_points
 
 FORMS = ("paper", "consistent")
 NKAPPA = 25        # wave vectors per axis of the quarter Brillouin zone
 LN10 = math.log(10.0)
+
+
+class Material(NamedTuple):
+    """The solid: rho_s [kg/m^3], mu_s = k theta [Pa s], G = 10^(G_a theta + G_b) [Pa]."""
+    rho_s: float
+    k: float
+    G_a: float
+    G_b: float
+
+
+class Lattice(NamedTuple):
+    """The particles: h [m], the lattice step per dimension [m] (a tuple), the kernel's name, and
+    ``beta_max``, the Morris cap of a channel with walls (None: no walls)."""
+    h: float
+    spacing: tuple
+    kernel: str = "cubic_spline"
+    beta_max: Optional[float] = None
+
+
+class Terms(NamedTuple):
+    """The terms of Eq. (5) that the run computes, and its pressure form (:data:`FORMS`)."""
+    pressure: bool = True
+    viscosity: bool = True
+    form: str = "paper"
+
+
+def groups(cfg):
+    """(Material, Lattice, Terms) of the run ``cfg``."""
+    return (Material(cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b),
+            Lattice(cfg.h, tuple(cfg.spacing), cfg.kernel, cfg.beta_max if cfg.scene.walls else None),
+            Terms(bool(cfg.pressure), bool(cfg.viscosity), cfg.get("numerics.pressure_form")))
 
 
 # ---- the sound speed of each pressure form -----------------------------------------------------------
@@ -78,10 +116,12 @@ def sound_speed(theta, rho_s, G_a, G_b, form):
 
 
 # ---- classical limits ----------------------------------------------------------------------------------
-def classical_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, form="paper"):
+def classical_limits(theta, vmax, material, lattice, terms=Terms(), amax=0.0):
     """Monaghan's limits [s] with the form's sound speed: CFL 0.25 h / (c + |v|), viscous 0.125 h^2 / nu,
     force 0.25 sqrt(h / |a|) (inf where absent). For comparison; the run uses :func:`limits`."""
-    c = sound_speed(theta, rho_s, G_a, G_b, form)
+    rho_s, k, G_a, G_b = material
+    h = lattice.h
+    c = sound_speed(theta, rho_s, G_a, G_b, terms.form)
     nu = k * theta / rho_s
     return {"cfl": 0.25 * h / (c + vmax) if c + vmax > 0 else math.inf,
             "viscous": 0.125 * h * h / nu if nu > 0 else math.inf,
@@ -89,7 +129,6 @@ def classical_limits(h, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, form="paper")
 
 
 # ---- lattice sums ------------------------------------------------------------------------------------------
-@lru_cache(maxsize=64)
 @lru_cache(maxsize=16)  # a run asks with the same lattice at every step; callers do not modify the arrays
 def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
     """Sums of the lattice with h = 1 and steps ``spacing`` (in units of h) over the quarter zone.
@@ -100,8 +139,7 @@ def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
     kern = get_kernel(kernel, dim)
     norm = kern.norm(1.0, dim)
     reach = kern.support
-    axes = [np.arange(-int(reach / s) - 1, int(reach / s) + 2) * s for s in spacing]
-    R = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)
+    R = lattice_points(spacing, reach) * np.asarray(spacing, dtype=float)
     r = np.sqrt((R * R).sum(axis=1))
     S = sum(kern.w(float(x), 1.0, norm) for x in r)
     R, r = R[(r > 0) & (r < reach)], r[(r > 0) & (r < reach)]
@@ -128,9 +166,11 @@ def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
     return kappa, S, b, D, V
 
 
-def modes(theta, k, rho_s, G_a, G_b, h, spacing, kernel="cubic_spline", form="paper", pressure_on=True,
-          viscosity_on=True, nkappa=NKAPPA):
+def modes(theta, material, lattice, terms=Terms(), nkappa=NKAPPA):
     """omega^2 [nk, dim] (eigenvalues of K) and gamma [nk] of the lattice's modes, and their kappa [nk, dim]."""
+    rho_s, k, G_a, G_b = material
+    h, spacing, kernel = lattice.h, lattice.spacing, lattice.kernel
+    form, pressure_on, viscosity_on = terms.form, terms.pressure, terms.viscosity
     dim = len(spacing)
     kappa, S, b, D, V = lattice_sums(kernel, dim, tuple(round(s / h, 12) for s in spacing), nkappa)
     S, b, D, V = S / h ** dim, b / h ** (dim + 1), D / h ** (dim + 2), V / h ** (dim + 2)
@@ -148,7 +188,6 @@ def modes(theta, k, rho_s, G_a, G_b, h, spacing, kernel="cubic_spline", form="pa
     return omega2, gamma, kappa / h
 
 
-@lru_cache(maxsize=64)
 @lru_cache(maxsize=16)
 def wall_gamma_max(kernel, dim, spacing, beta_max, nrows=12, nkappa=NKAPPA):
     """The largest damping rate of the viscous operator in a channel with walls (h = 1, dimensionless).
@@ -166,8 +205,7 @@ def wall_gamma_max(kernel, dim, spacing, beta_max, nrows=12, nkappa=NKAPPA):
     cols = np.arange(-nw, nrows + nw)
     xs = (cols + 0.5) * sx
     Lx = nrows * sx
-    axes = [np.arange(-int(kern.support / s) - 1, int(kern.support / s) + 2) * s for s in rest]
-    off = np.stack([g.ravel() for g in np.meshgrid(*axes, indexing="ij")], axis=1)    # [noff, dim-1]
+    off = lattice_points(rest, kern.support) * np.asarray(rest, dtype=float)            # [noff, dim-1]
     grids = np.meshgrid(*[np.linspace(0.0, math.pi / s, nkappa) for s in rest], indexing="ij")
     kappa = np.stack([g.ravel() for g in grids], axis=1)
     cosk = np.cos(kappa @ off.T)                                                       # [nk, noff]
@@ -234,21 +272,21 @@ def lattice_growth(omega2, gamma):
     return float(np.where(omega2 < 0, s, 0.0).max(initial=0.0))
 
 
-def linear_limit(theta, k, rho_s, G_a, G_b, h, spacing, kernel="cubic_spline", form="paper", integrator="paper",
-                 pressure_on=True, viscosity_on=True, beta_max=None, nkappa=NKAPPA):
+def linear_limit(theta, material, lattice, terms=Terms(), integrator="paper", nkappa=NKAPPA):
     """The von Neumann limit [s] of the module doc and its term ("damping", "acoustic" or "viscous").
 
-    ``beta_max``: the scene has walls (the viscous condition is also taken in
-    the channel, :func:`wall_gamma_max`). Undamped modes (k = 0 with
+    ``lattice.beta_max``: the scene has walls (the viscous condition is also
+    taken in the channel, :func:`wall_gamma_max`). Undamped modes (k = 0 with
     pressure) are unstable at every dt in both integrators (slowly); the limit
     is then the CFL one, term "cfl".
     """
-    if pressure_on and not (viscosity_on and k > 0):
-        return 0.25 * h / sound_speed(theta, rho_s, G_a, G_b, form), "cfl"
-    omega2, gamma, _ = modes(theta, k, rho_s, G_a, G_b, h, spacing, kernel, form, pressure_on, viscosity_on,
-                             nkappa)
+    rho_s, k, G_a, G_b = material
+    h, spacing, kernel, beta_max = lattice
+    if terms.pressure and not (terms.viscosity and k > 0):
+        return 0.25 * h / sound_speed(theta, rho_s, G_a, G_b, terms.form), "cfl"
+    omega2, gamma, _ = modes(theta, material, lattice, terms, nkappa)
     omega2, gamma = omega2.ravel(), np.repeat(gamma, omega2.shape[1])
-    if beta_max is not None and viscosity_on:
+    if beta_max is not None and terms.viscosity:
         dim = len(spacing)
         S = lattice_sums(kernel, dim, tuple(round(s / h, 12) for s in spacing), nkappa)[1] / h ** dim
         g_wall = wall_gamma_max(kernel, dim, tuple(round(s / h, 12) for s in spacing), beta_max) \
@@ -272,17 +310,17 @@ def _linear_cached(*args):
     return linear_limit(*args)
 
 
-def limits(h, spacing, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, kernel="cubic_spline", form="paper",
-           integrator="paper", pressure_on=True, viscosity_on=True, beta_max=None):
-    """The run's limits [s] (inf where absent): the linear one under its term's name, ``advection``
-    0.5 h / |v|_max and ``force`` 0.25 sqrt(h / |a|_max). The smallest is the stable step.
+def limits(theta, vmax, amax, material, lattice, terms=Terms(), integrator="paper"):
+    """The limits [s] at (theta, |v|_max, |a|_max) (inf where absent): the linear one under its term's
+    name, ``advection`` 0.5 h / |v|_max and ``force`` 0.25 sqrt(h / |a|_max). The smallest is the stable step.
 
     The linear limit falls as theta rises; it is evaluated at theta rounded up
     to a multiple of THETA_STEP (a cache: a run's theta_max takes few values).
     """
+    h = lattice.h
     th = min(math.ceil(theta / THETA_STEP - 1e-9) * THETA_STEP, 0.999)
-    dt, term = _linear_cached(th, k, rho_s, G_a, G_b, h, tuple(spacing), kernel, form, integrator,
-                              bool(pressure_on), bool(viscosity_on), beta_max)
+    dt, term = _linear_cached(th, Material(*material), lattice._replace(spacing=tuple(lattice.spacing)),
+                              Terms(bool(terms.pressure), bool(terms.viscosity), terms.form), integrator)
     out = {term: dt} if term != "none" else {}
     out["advection"] = 0.5 * h / vmax if vmax > 0 else math.inf
     out["force"] = 0.25 * math.sqrt(h / amax) if amax > 0 else math.inf
@@ -291,9 +329,7 @@ def limits(h, spacing, theta, rho_s, k, G_a, G_b, vmax, amax=0.0, kernel="cubic_
 
 def run_limits(cfg, theta, vmax, amax):
     """:func:`limits` for the run ``cfg`` at (theta, |v|_max, |a|_max)."""
-    return limits(cfg.h, cfg.spacing, theta, cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, vmax, amax, cfg.kernel,
-                  cfg.get("numerics.pressure_form"), cfg.integrator, cfg.pressure, cfg.viscosity,
-                  cfg.beta_max if cfg.scene.walls else None)
+    return limits(theta, vmax, amax, *groups(cfg), cfg.integrator)
 
 
 def stable_dt(cfg, theta_max, v_max, a_max):

@@ -1,7 +1,8 @@
 """A run: the validated run file and every quantity derived from it, computed once (:class:`RunConfig`).
 
-A run file has the sections of :data:`parsph.setup.schema.SCHEMA`; ``parsph run
---set section.key=value`` overrides any key (:mod:`parsph.setup.runfile`). Every
+A run file (:class:`parsph.setup.runfile.RunFile`) has the sections of
+:data:`parsph.setup.schema.SCHEMA`; ``parsph run --set section.key=value``
+overrides any key. Every
 problem raises :class:`ConfigError` naming the key. The full key list with
 units is in docs/running.md ("Run-file keys"). :func:`build` derives the
 lattice, checks the kernel's support against it, and chooses the time step
@@ -9,13 +10,13 @@ against the run's stability limits (:mod:`parsph.physics.limits`).
 """
 from dataclasses import dataclass, field, replace
 import math
-import tomllib
 
 from parsph.physics.kernels import get_kernel
 from parsph.physics import limits as stability
-from .runfile import apply_overrides, dumps, parse_value  # noqa: F401  (the run-file API lives here too)
+from parsph.errors import ConfigError
+from .runfile import RunFile
 from .scenes import get_scene
-from .schema import REQUIRED, SCHEMA, ConfigError, Key, _finite, validate  # noqa: F401
+from .schema import validate
 
 MAX_NEIGHBOURS = 5000  # lattice neighbours within the support: memory and time per particle grow with it
 
@@ -93,6 +94,14 @@ class RunConfig:
         """The scene's velocity scale [m/s]: errors are normalised by it."""
         return self.scene.velocity_scale(self)
 
+    def error_scale(self, t):
+        """What errors of the scene's error field are relative to at time t [m/s or 1]: the amplitude left
+        of a decaying flow (the scene's current_scale), else the fixed scale (the velocity scale, or
+        theta_0 for theta). The profile, the output files and ``parsph check`` all take it from here."""
+        if self.scene.current_scale is not None:
+            return float(self.scene.current_scale(self, t))
+        return self.velocity_scale if self.scene.error_field == "vy" else self.theta0
+
     @property
     def reynolds(self):
         return self.velocity_scale * self.L / self.nu if self.nu > 0 else math.inf
@@ -100,6 +109,13 @@ class RunConfig:
     def get(self, dotted):
         section, key = dotted.split(".")
         return self.values[section][key]
+
+
+def _finite(key, value, what):
+    """A derived quantity must be a finite, positive float: else the key is out of range."""
+    if not (math.isfinite(value) and value > 0):
+        raise ConfigError(key, f"out of range: {what} = {value!r}")
+    return value
 
 
 def _lattice(v):
@@ -204,9 +220,10 @@ def _time_step(v, cfg):
     return dict(dt=dt, dt_auto=auto, nsteps=nsteps, output_times=times, limits=limits)
 
 
-def build(raw, text):
-    """Validate a raw run-file dict and derive the run's quantities."""
-    v = validate(raw)
+def build(run_file):
+    """Validate a :class:`RunFile` and derive the run's quantities."""
+    text = run_file.dump()
+    v = validate(run_file.tables())
     mat, walls, num, out, terms = v["material"], v["walls"], v["numerics"], v["output"], v["terms"]
     lat, hkey = _lattice(v)
     dim = lat["dim"]
@@ -227,24 +244,9 @@ def build(raw, text):
 
 def load(path, overrides=()):
     """Read, override and validate a run file."""
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as e:
-        raise ConfigError("<file>", f"cannot read {path}: {e.strerror}") from None
-    try:
-        raw = tomllib.loads(data.decode("utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ConfigError("<file>", f"{path} is not valid TOML: {e}") from None
-    apply_overrides(raw, overrides)
-    return build(raw, dumps(raw))
+    return build(RunFile.read(path).override(overrides))
 
 
 def loads(text, overrides=()):
     """Validate a run file given as a TOML string."""
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError("<file>", f"not valid TOML: {e}") from None
-    apply_overrides(raw, overrides)
-    return build(raw, dumps(raw))
+    return build(RunFile.parse(text).override(overrides))

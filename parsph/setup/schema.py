@@ -6,21 +6,13 @@ The key list with units is in docs/running.md ("Run-file keys").
 from dataclasses import dataclass
 import math
 
+from parsph.errors import ConfigError
 from parsph.sph.integrators import INTEGRATORS
+from parsph.physics.closures import G_A, G_B
 from parsph.physics.kernels import KERNEL_NAMES
 from .scenes import SCENE_NAMES
 
 REQUIRED = object()
-
-
-class ConfigError(Exception):
-    """A bad run file: ``key`` names the offending key."""
-
-    def __init__(self, key, reason):
-        shown = repr(key) if len((key + ".").splitlines()) > 1 else key  # one line, always
-        super().__init__(f"{shown}: {reason}")
-        self.key = key
-        self.reason = reason
 
 
 @dataclass(frozen=True)
@@ -54,8 +46,8 @@ SCHEMA = {
         "rho_s": Key("float", REQUIRED, positive=True, doc="solid material density [kg/m^3]"),
         "theta0": Key("float", REQUIRED, positive=True, hi=1.0, doc="initial volume fraction"),
         "k": Key("float", REQUIRED, nonnegative=True, doc="viscosity coefficient, mu_s = k theta [Pa s]"),
-        "G_a": Key("float", 8.76, doc="G = 10^(G_a theta + G_b) [Pa]"),
-        "G_b": Key("float", -1.183, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "G_a": Key("float", G_A, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "G_b": Key("float", G_B, doc="G = 10^(G_a theta + G_b) [Pa]"),
     },
     "walls": {
         "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
@@ -105,13 +97,6 @@ def _float(key, value):
         return float(value)
     except OverflowError:
         raise ConfigError(key, "number too large") from None
-
-
-def _finite(key, value, what):
-    """A derived quantity must be a finite, positive float: else the key is out of range."""
-    if not (math.isfinite(value) and value > 0):
-        raise ConfigError(key, f"out of range: {what} = {value!r}")
-    return value
 
 
 def _typed(key, spec, value):

@@ -7,17 +7,25 @@ jump); for the energy bound, the fastest fluid particle. It raises
 :class:`GuardError` on every rank alike, carrying a :class:`GuardResult`
 (the check's code, the particle, its position and value), so that callers
 (the stability map, say) classify failures without reading the message.
+
+The criteria are defined once (:func:`_per_particle`): the checks apply them
+collectively with their thresholds, :func:`read` measures them over one rank's
+particles without stopping anything (for observers of a run: the stability
+map, the stability tests).
 """
 from dataclasses import dataclass
 import math
 
 import numpy as np
 
+from parsph.errors import GuardError
 from parsph.sph.particles import FLUID
 
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
           3: "volume fraction out of range", 4: "kinetic energy above what the walls can inject",
           5: "particle moved more than h in one step"}
+CRITERIA = ("nonfinite", "wall", "theta", "energy")   # checks 1-4 by name, as Reading.failed names them
+CRITERION_OF = {1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}
 
 
 @dataclass(frozen=True)
@@ -33,12 +41,58 @@ class GuardResult:
     message: str
 
 
-class GuardError(RuntimeError):
-    """A run-time check failed on some rank; raised on every rank alike with the same ``result``."""
+def _per_particle(pos, vel, theta, kind, cfg, acc=None, theta_ref=None):
+    """Per particle: fluid; finite (position, velocity and, where given, acceleration); the depth
+    beyond a wall plane [m] (-inf inside, for the others and without walls); |theta - theta_ref|
+    (theta_ref: theta_0, or one per particle; 0 for the others)."""
+    fluid = kind == FLUID
+    finite = np.isfinite(pos).all(axis=1) & np.isfinite(vel).all(axis=1)
+    if acc is not None:
+        finite &= np.isfinite(acc).all(axis=1)
+    depth = np.where(fluid & finite, np.maximum(-pos[:, 0], pos[:, 0] - cfg.L), -np.inf) \
+        if cfg.scene.walls else np.full(len(kind), -np.inf)
+    ref = cfg.theta0 if theta_ref is None else theta_ref
+    dev = np.where(fluid & finite, np.abs(theta - ref), 0.0)
+    return fluid, finite, depth, dev
 
-    def __init__(self, result):
-        super().__init__(result.message)
-        self.result = result
+
+@dataclass(frozen=True)
+class Reading:
+    """The checks' criteria over one rank's fluid particles now (no communication)."""
+    nonfinite: bool         # a non-finite position or velocity (acceleration too, where read)
+    depth: float            # the largest depth beyond a wall plane [m] (-inf: none, or no walls)
+    theta_dev: float        # max |theta - theta_ref| / theta_ref (inf: a theta is not finite)
+    kinetic_energy: float   # of the fluid [J/m in 2-D]
+    mass: float             # of the fluid
+    speed: float            # the largest |v| [m/s]
+    vy_min: float
+    vy_max: float
+
+    def failed(self, cfg, t, theta_frac):
+        """{criterion: whether it fails}: beyond a wall, theta_dev above theta_frac, the kinetic energy
+        above the scene's bound (the checks' own thresholds, but theta's, which is the caller's)."""
+        return {"nonfinite": self.nonfinite, "wall": self.depth > 0, "theta": not self.theta_dev <= theta_frac,
+                "energy": not self.kinetic_energy <= cfg.scene.max_kinetic_energy(cfg, self.mass, t)}
+
+
+def read(fields, cfg, theta_ref=None, acc=None):
+    """The Reading of ``fields`` (:meth:`Simulation.particles`); ``theta_ref(x)``: the theta each fluid
+    particle is measured against (default theta_0); ``acc``: the owned particles' accelerations."""
+    kind, pos, vel, theta = fields["kind"], fields["position"], fields["velocity"], fields["theta"]
+    fl = kind == FLUID
+    ref = cfg.theta0 if theta_ref is None else theta_ref(np.nan_to_num(pos[:, 0]))
+    with np.errstate(all="ignore"):
+        _, finite, depth, _ = _per_particle(pos, vel, theta, kind, cfg, acc)
+        th = theta[fl]
+        rel = np.abs(th - (ref if np.ndim(ref) == 0 else ref[fl])) / (ref if np.ndim(ref) == 0 else ref[fl])
+        dev = math.inf if not np.isfinite(th).all() else float(rel.max(initial=0.0))
+        m, v = fields["mass"][fl], vel[fl]
+        v2 = (v ** 2).sum(axis=1)
+        ke = 0.5 * float((m * v2).sum())
+        speed = float(np.sqrt(v2).max(initial=0.0))
+    return Reading(not finite[fl].all(), float(depth.max(initial=-math.inf)), dev, ke if math.isfinite(ke) else math.inf,
+                   float(m.sum()), speed if math.isfinite(speed) else math.inf,
+                   float(v[:, 1].min(initial=math.inf)), float(v[:, 1].max(initial=-math.inf)))
 
 
 def run_checks(collect, ps, cfg, step, t):
@@ -47,13 +101,9 @@ def run_checks(collect, ps, cfg, step, t):
     ``collect``: the solver's :class:`parsph.parallel.collectives.Collectives`."""
     n = ps.n_own
     pos, vel = ps.pos[:n], ps.vel[:n]
-    fluid = ps.kind[:n] == FLUID
     scene = cfg.scene
     report = np.zeros(6)  # code, severity, gid, x, y, value
-    finite = np.isfinite(pos).all(axis=1) & np.isfinite(vel).all(axis=1) & np.isfinite(ps.acc[:n]).all(axis=1)
-    depth = np.where(fluid & finite, np.maximum(-pos[:, 0], pos[:, 0] - cfg.L), -np.inf) \
-        if scene.walls else np.full(n, -np.inf)
-    dev = np.where(fluid & finite, np.abs(ps.theta[:n] - cfg.theta0), 0.0)
+    fluid, finite, depth, dev = _per_particle(pos, vel, ps.theta[:n], ps.kind[:n], cfg, ps.acc[:n])
     jump = np.where(finite, ps.jump[:n], 0.0)
     for code, severity, value in ((1, np.where(finite, 0.0, 1.0), ps.theta[:n]), (2, np.where(depth > 0, depth, 0.0), depth),
                                   (3, np.where(dev > cfg.get("checks.theta_change") * cfg.theta0, dev, 0.0), ps.theta[:n]),

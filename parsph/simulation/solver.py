@@ -31,8 +31,10 @@ from parsph.sph import integrators
 from parsph.physics import limits
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
-from .guards import CHECKS, GuardError, GuardResult, run_checks  # noqa: F401  (re-exported)
-from parsph.physics.kernels import get_kernel, lattice_sum
+from parsph.errors import Interrupted
+from .guards import run_checks
+from parsph.physics.kernels import get_kernel
+from parsph.physics.lattice_sums import lattice_sum
 from parsph.sph.neighbours import cell_coords, grid_for
 from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, state_maxima
@@ -42,14 +44,6 @@ from parsph.sph import pass_data
 from .compiled_steps import CompiledSteps
 
 PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
-
-
-class Interrupted(RuntimeError):
-    """A stop was requested (signal); raised on every rank alike after the last output."""
-
-    def __init__(self, message, signum):
-        super().__init__(message)
-        self.signum = signum
 
 
 class Simulation(CompiledSteps):
@@ -264,7 +258,7 @@ class Simulation(CompiledSteps):
 
         Returns a dict: x, vy, theta, count, the scene's reference profiles
         (vy_exact, theta_exact; NaN where it has none) and (err_max, err_rms)
-        of its error field, normalised by V_w (velocity) or theta_0 (theta).
+        of its error field, relative to ``cfg.error_scale(t)``.
         """
         ps, cfg = self.ps, self.cfg
         bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self.period_x,
@@ -278,7 +272,7 @@ class Simulation(CompiledSteps):
         for key in ("vy", "theta"):
             out[key + "_exact"] = ref.get(key, np.full(self.nbins, np.nan))
         field = self.scene.error_field
-        scale = cfg.velocity_scale if field == "vy" else cfg.theta0
+        scale = cfg.error_scale(self.t)
         out["err"] = errors(out[field], out[field + "_exact"], scale) if field in ref else (math.nan, math.nan)
         return out
 

@@ -61,7 +61,7 @@ import math
 import numpy as np
 from numba import njit, prange, uintp
 
-from parsph.physics.closures import _modulus, half_modulus
+from parsph.physics.closures import half_modulus, modulus_unchecked
 from parsph.physics.kernels import kernel_w_f
 from .particles import FLUID
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
@@ -191,7 +191,7 @@ def pressure_factor(th, rho_i, G_a, G_b, consistent):
     with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly.
     """
     if len(consistent):
-        return _modulus(th, G_a, G_b) / (G_a * math.log(10.0)) / (rho_i * rho_i)
+        return modulus_unchecked(th, G_a, G_b) / (G_a * math.log(10.0)) / (rho_i * rho_i)
     return half_modulus(th, G_a)
 
 

@@ -1,16 +1,22 @@
 """The analysis half of ``parsph converge`` (rank 0, files only): estimates per family and output
-time from the levels' outputs, the --target choice, the printed report, converge.json and the PNG.
+time from the levels' outputs (:class:`parsph.studies.converge.FamilyRuns`), the --target choice, the
+printed report, converge.json and the PNG.
 """
+import json
 import math
-import tomllib
+import os
 
 import numpy as np
 
+from parsph.output import read_profile
+from parsph.setup import config
+from parsph.setup.runfile import RunFile
 from . import estimates
+from .levels import level_run_file
 
 
 def analyse(results, ratio, target=None, dt_scaling="limit"):
-    """Estimates per family and output time from the levels' outputs; the --target choice."""
+    """Estimates per family and output time from the runs of each family (FamilyRuns); the --target choice."""
     fams = [_family_report(item, ratio, target, dt_scaling) for item in results]
     report = {"ratio": ratio, "target": target, "families": fams, "dt_scaling": dt_scaling}
     if target is not None:
@@ -21,27 +27,24 @@ def analyse(results, ratio, target=None, dt_scaling="limit"):
 
 
 def _family_report(item, ratio, target, dt_scaling):
-    """One family: the estimate at every output time, and its setting for the target."""
-    from parsph.setup import config
-    from parsph.output import read_profile
-    fam, runs = item[0], item[1]
-    bias_rec = item[2] if len(item) > 2 else None
-    time_rec = item[3] if len(item) > 3 else None
-    profs = [read_profile(r["dir"]) for r in runs]
-    bprof = read_profile(bias_rec["dir"]) if bias_rec is not None else None
-    tprof = read_profile(time_rec["dir"]) if time_rec is not None else None
+    """One family (FamilyRuns): the estimate at every output time, and its setting for the target."""
+    runs, bias_run, time_run = item.levels, item.bias, item.time
+    profs = [read_profile(r.dir) for r in runs]
+    bprof = read_profile(bias_run.dir) if bias_run is not None else None
+    tprof = read_profile(time_run.dir) if time_run is not None else None
     dts = None
     if tprof is not None:  # the finest level's dt and the time-step run's
-        dts = (config.loads(runs[-1]["run_file"]).dt, config.loads(time_rec["run_file"]).dt)
+        dts = (config.loads(runs[-1].run_file).dt, config.loads(time_run.run_file).dt)
     cfg = config.loads(profs[0]["attrs"]["run_file"])
-    nxs = [r["Nx"] for r in runs]
+    nxs = [r.Nx for r in runs]
     times = [_time_row(cfg, i, float(t), profs, bprof, tprof, dts, runs, ratio)
              for i, t in enumerate(profs[0]["time"])]
     cautions = estimates.times_caution([r["estimate"]["order"] for r in times if r["estimate"]["asymptotic"]])
-    fam_rep = {"family": fam, "scene": cfg.scene.name, "field": cfg.scene.error_field, "Nx": nxs,
-               "particles": [r["particles"] for r in runs], "levels": runs, "times": times,
-               "caution": cautions, "bias": None if bias_rec is None else bias_rec["bias"],
-               "bias_run": bias_rec, "time_run": time_rec}
+    fam_rep = {"family": item.family, "scene": cfg.scene.name, "field": cfg.scene.error_field, "Nx": nxs,
+               "particles": [r.particles for r in runs], "levels": [r.record() for r in runs], "times": times,
+               "caution": cautions, "bias": None if bias_run is None else bias_run.bias,
+               "bias_run": None if bias_run is None else bias_run.record(),
+               "time_run": None if time_run is None else time_run.record()}
     if target is not None:
         fam_rep["target"] = _target_setting(runs, nxs, times, target, dts, dt_scaling)
     return fam_rep
@@ -50,17 +53,16 @@ def _family_report(item, ratio, target, dt_scaling):
 def _time_row(cfg, i, t, profs, bprof, tprof, dts, runs, ratio):
     """Output time i: the levels on the coarsest bins, the estimate, the true error where there is a
     reference, and the time-step run's effect."""
-    from parsph.setup.scenes import error_scale
     field = cfg.scene.error_field
     period = None if cfg.scene.walls else cfg.L
     xc = profs[0]["x"]
-    scale = error_scale(cfg, t)
+    scale = cfg.error_scale(t)
     on_coarse = [profs[0][field][i]] + [estimates.to_coarse(p["x"], p[field][i], xc, period)
                                         for p in profs[1:]]
     bias = None if bprof is None else np.asarray(bprof[field][i]) - np.asarray(profs[0][field][i])
     est = estimates.estimate(on_coarse, ratio, scale, bias=bias)
     row = {"t": t, "scale": scale, "estimate": est.as_dict(),
-           "cpu_s": [r["cpu_s"][i] for r in runs], "steps": [r["steps"][i] for r in runs]}
+           "cpu_s": [r.cpu_s[i] for r in runs], "steps": [r.steps[i] for r in runs]}
     if cfg.scene.reference is not None and field in cfg.scene.reference(cfg, xc[:1], t):
         ref = cfg.scene.reference(cfg, xc, t)[field]
         ok = np.all(np.isfinite(on_coarse), axis=0)
@@ -74,17 +76,16 @@ def _time_row(cfg, i, t, profs, bprof, tprof, dts, runs, ratio):
         dT = (estimates.to_coarse(pf["x"], tprof[field][i], xc, period)
               - estimates.to_coarse(pf["x"], pf[field][i], xc, period)) / scale
         row["time_effect_max"] = float(np.nanmax(np.abs(dT)))
-        row["_T"] = dT[est._ok] / (dts[1] - dts[0])
+        row["_T"] = dT[est.used] / (dts[1] - dts[0])
     row["_est"] = est
     return row
 
 
 def _target_setting(runs, nxs, times, target, dts, dt_scaling):
     """The cheapest N_x (and dt_safety) of this family predicted to meet the target at every time."""
-    from parsph.setup import config
-    costs = [r["cpu_s"][-1] for r in runs]
+    costs = [r.cpu_s[-1] for r in runs]
     if dts is not None:  # a time-step run: trade dt against N_x
-        cfgs = [config.loads(r["run_file"]) for r in runs]
+        cfgs = [config.loads(r.run_file) for r in runs]
         s0 = cfgs[0].values["numerics"]["dt_safety"]  # the base level's margin below its limit
         measured = [(n, c.limits) for n, c in zip(nxs, cfgs)]
 
@@ -106,10 +107,9 @@ def _target_setting(runs, nxs, times, target, dts, dt_scaling):
         cost, a = estimates.cost_at(need, nxs, costs)
         setting.update(cpu_s=cost, cost_exponent=a, to_time=times[-1]["t"])
         if dt_scaling == "dx2":  # the errors were measured with dt ~ dx^2: the setting needs that dt
-            from .converge import level_raw
-            lr = level_raw(tomllib.loads(runs[0]["run_file"]), need, "dx2")["numerics"]
-            setting["set"] = (f"numerics.dt_safety={lr['dt_safety']:.4g}" if lr["dt"] == "auto"
-                              else f"numerics.dt={lr['dt']:.4g}")
+            lr = level_run_file(RunFile.parse(runs[0].run_file), need, "dx2")
+            setting["set"] = (f"numerics.dt_safety={lr.get('numerics', 'dt_safety'):.4g}"
+                              if lr.get("numerics", "dt") == "auto" else f"numerics.dt={lr.get('numerics', 'dt'):.4g}")
     return setting
 
 
@@ -182,16 +182,27 @@ def print_report(rep):
                   f"(about {c['cpu_s']:.3g} CPU s)")
 
 
-def _jsonable(o):
+def jsonable(o):
+    """``o`` as JSON takes it: numpy scalars as numbers, non-finite floats as null, keys with a leading _ left out."""
     if isinstance(o, dict):
-        return {k: _jsonable(v) for k, v in o.items() if not k.startswith("_")}
+        return {k: jsonable(v) for k, v in o.items() if not k.startswith("_")}
     if isinstance(o, (list, tuple)):
-        return [_jsonable(v) for v in o]
+        return [jsonable(v) for v in o]
     if isinstance(o, float) and not math.isfinite(o):
         return None
     if isinstance(o, (np.floating, np.integer)):
-        return _jsonable(o.item())
+        return jsonable(o.item())
     return o
+
+
+def write_report(report, out_dir):
+    """DIR/converge.json and DIR/converge.png; their paths."""
+    path = os.path.join(out_dir, "converge.json")
+    with open(path, "w") as f:
+        json.dump(jsonable(report), f, indent=1)
+    png = os.path.join(out_dir, "converge.png")
+    plot(report, png)
+    return path, png
 
 
 def plot(rep, png):

@@ -99,6 +99,11 @@ class Estimate:
     _rich: object = None           # (f_finest - f_inf) / scale on those bins
     _bias: object = None           # B / scale on those bins
 
+    @property
+    def used(self):
+        """The bins the estimate used (a mask over the bins given)."""
+        return self._ok
+
     def as_dict(self):
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 

@@ -12,7 +12,7 @@ import math
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.parallel.slab_ring import min_length
+from parsph.parallel.slabs import min_length
 from parsph.sph.neighbours import CELLS_PER_CUTOFF
 from parsph.simulation.solver import Simulation
 

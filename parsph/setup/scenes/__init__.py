@@ -46,16 +46,9 @@ class Scene:
     # (PHYSICS.md: wall theta is not evolved; held at theta_0 or mirrored)
     wall_theta: Optional[Callable] = None
     # current_scale(cfg, t) -> what is left of the flow at time t [m/s], for flows that decay:
-    # errors are then reported relative to it (None: to the fixed scale, V_w or theta_0)
+    # errors are then reported relative to it (None: to the fixed scale, V_w or theta_0;
+    # RunConfig.error_scale)
     current_scale: Optional[Callable] = None
-
-
-def error_scale(cfg, t):
-    """What errors of the scene's error field are relative to at time t: the current amplitude
-    of a decaying flow, else the fixed scale (the velocity scale, or theta_0 for theta)."""
-    if cfg.scene.current_scale is not None:
-        return float(cfg.scene.current_scale(cfg, t))
-    return cfg.velocity_scale if cfg.scene.error_field == "vy" else cfg.theta0
 
 
 def get_scene(name):
