@@ -236,5 +236,6 @@ def test_wall_damping_limit_is_the_channels_largest_eigenvalue(dim, nx, rows, ke
     predicted = limits.wall_gamma_max(kernel, dim, spacing, beta_max) * 2 * cfg.k * cfg.mass / cfg.rho_s ** 2 \
         / cfg.h ** (dim + 2)
     assert predicted == pytest.approx(eig.max(), rel=1e-8), (predicted, eig.max())
-    periodic = limits.modes(cfg.theta0, cfg.k, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.h, cfg.spacing, kernel)[1].max()
+    periodic = limits.modes(cfg.theta0, limits.Material(cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b),
+                            limits.Lattice(cfg.h, tuple(cfg.spacing), kernel))[1].max()
     assert eig.max() > 1.05 * periodic, (eig.max(), periodic)

@@ -88,7 +88,7 @@ def test_any_block_gives_the_same_sums(case, block):
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="numba allows one thread here")
 def test_threaded_passes_equal_the_scalar_loops(case):
     name, sim, args, _, ref = case
-    gather = sim.rates._gather_arrays()
+    gather = sim.rates.gather_arrays()
     for threads in (1, 2):
         numba.set_num_threads(threads)
         try:

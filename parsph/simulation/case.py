@@ -73,7 +73,7 @@ def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, pr
     first = 0 if state is None else int(state["attrs"]["index"]) + 1
     agree(comm, lambda: _refuse_overwrite(out_dir, stem, first, force))
     agree(comm, lambda: set_threads(threads))
-    agree(comm, lambda: fits_in_memory(comm, cfg))
+    agree(comm, lambda: fits_in_memory(comm, cfg, threads))
     agree(comm, lambda: _make_dir(comm, out_dir))
     agree(comm, lambda: _writable(out_dir))
     if comm.rank == 0:
@@ -112,12 +112,12 @@ def max_ranks(cfg):
     return slabs.max_ranks(cfg.Ly, grid.cutoff, grid.m)
 
 
-def fits_in_memory(comm, cfg):
-    """Refuse a run whose particles cannot fit in the memory of the nodes in use."""
+def fits_in_memory(comm, cfg, threads=1):
+    """Refuse a run whose particles cannot fit in the memory of the nodes in use (``threads`` per rank)."""
     mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     hosts = dict(comm.allgather((MPI.Get_processor_name(), mem)))
     have = sum(hosts.values())
-    need = cfg.n_particles * bytes_per_particle(cfg)
+    need = cfg.n_particles * bytes_per_particle(cfg, threads)
     if need > 0.8 * have:
         raise ConfigError("numerics.Nx", f"{cfg.n_particles:,} particles need about {need / 1e9:.3g} GB, "
                           f"more than 80% of the {have / 1e9:.3g} GB of memory on {len(hosts)} node(s)")
