@@ -280,10 +280,10 @@ def block_spread(disp, cells, local, box, work):
         c = cell[i]
         for q in range(dim):
             v = disp[i, q]
-            if v < box[c, q]:
-                box[c, q] = v
-            if v > box[c, 3 + q]:
-                box[c, 3 + q] = v
+            b = box[c, q]
+            box[c, q] = v if v < b else b
+            b = box[c, 3 + q]
+            box[c, 3 + q] = v if v > b else b
     for c in range(ncells):
         if box[c, 0] > box[c, 3]:  # empty cell: displacement 0
             for q in range(dim):
@@ -309,11 +309,9 @@ def block_spread(disp, cells, local, box, work):
                             mx = src[c + lo * stride, 3 + q]
                             for e in range(lo + 1, hi + 1):
                                 v = src[c + e * stride, q]
-                                if v < mn:
-                                    mn = v
+                                mn = v if v < mn else mn  # selects, not branches
                                 v = src[c + e * stride, 3 + q]
-                                if v > mx:
-                                    mx = v
+                                mx = v if v > mx else mx
                             dst[c, q] = mn
                             dst[c, 3 + q] = mx
             src, dst = dst, src
