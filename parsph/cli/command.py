@@ -1,4 +1,4 @@
-"""The ``parsph`` command: run, check, plot.
+"""The ``parsph`` command: run, check, converge, plot.
 
     parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
     parsph check OUTPUT [--tol 0.02]
@@ -16,15 +16,22 @@ Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
 import argparse
 import sys
 
+from parsph import __version__
+
 from .report import cmd_check, cmd_plot, print_table, profile_png, reference_lines  # noqa: F401
 from .run import (RESTART_FREE, fits_in_memory, restart_state, run_reporting,  # noqa: F401
                           Signals, cmd_run)
 from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL, UsageError, agree  # noqa: F401
 
 
+DESCRIPTION = ("parsph: parallel SPH for the solid phase of granular two-fluid models. Four commands: "
+               "run, check, converge, plot; 'parsph COMMAND --help' for the options of one.")
+
+
 def build_parser():
-    p = argparse.ArgumentParser(prog="parsph", description=__doc__.split("\n")[0])
-    sub = p.add_subparsers(dest="command", required=True)
+    p = argparse.ArgumentParser(prog="parsph", description=DESCRIPTION)
+    p.add_argument("--version", action="version", version=f"parsph {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     r = sub.add_parser("run", help="run a case (under mpirun for several ranks)")
     r.add_argument("config", help="run file (TOML)")
     r.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
