@@ -16,11 +16,6 @@ from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL, UsageErr
 RESTART_FREE = ("output", "checks")
 
 
-def _fmt_time(s):
-    s = int(round(s))
-    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"
-
-
 class Signals:
     """SIGINT/SIGTERM set a flag that the time loop polls; the step in hand finishes."""
 
@@ -165,9 +160,18 @@ def _banner(cfg, sim, comm, state, out_dir, stem):
 
 
 def _run(comm, args, say, signals):
+    from .progress import COMPILING, CompileWatch
+    quiet = getattr(args, "quiet", False)
+    with CompileWatch(note=None if quiet else lambda: say(f"  {COMPILING}")) as watch:
+        return _run_watched(comm, args, say, signals, watch)
+
+
+def _run_watched(comm, args, say, signals, watch):
     from parsph.output import Output, output_files
     from parsph.simulation.solver import Simulation
+    from .progress import Progress
 
+    started = Progress.clock()
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = _out_dir(args, stem)
     cfg, state, first = agree(comm, lambda: _prepare(args, out_dir, stem))
@@ -184,22 +188,15 @@ def _run(comm, args, say, signals):
     if not cfg.dt_auto and cfg.dt > min(cfg.limits.values()):
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
     say(_banner(cfg, sim, comm, state, out_dir, stem))
+    watch.arm()
     out = Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first)
     if getattr(args, "wrap_output", None) is not None:  # parsph converge times the loop through it
         out = args.wrap_output(out)
 
-    def progress(s, rate, eta):
-        of = "" if cfg.dt_auto else f"/{cfg.nsteps}"
-        say(f"  step {s.step:>7d}{of}  t = {s.t:.5f} s  {rate:.3g} particle-steps/s  "
-            f"left {_fmt_time(eta)}")
-
+    progress = Progress(cfg, sim.n_total, say, watch, started)
     step0 = sim.step
     sim.run(output=out, progress=None if args.quiet else progress, stop_requested=signals)
-    total = sim.wall_time
-    steps_done = sim.step - step0
-    rate = sim.n_total * steps_done / total if total > 0 else float("nan")
-    say(f"done: {steps_done} steps in {total:.1f} s ({rate:.3g} particle-steps/s; "
-        f"neighbour list built {sim.rebuilds} times)")
+    say(progress.summary(sim, sim.step - step0))
     if comm.rank == 0 and output_files(out_dir):
         print_table(out_dir)
     return 0
