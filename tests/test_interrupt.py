@@ -322,7 +322,7 @@ def test_stop_requested_on_one_rank_in_process(mpi_tmp_path):
         sim.run(output=Output(comm, str(a), C.STEM, cfg, sim.n_total),
                 stop_requested=lambda: comm.rank == comm.size - 1 and sim.step >= 7)
     comm.Barrier()
-    assert sorted(os.listdir(a)) == [f"{C.STEM}.xdmf", name(0)]
+    assert sorted(os.listdir(a)) == [f"{C.STEM}.cells.h5", f"{C.STEM}.xdmf", name(0)]
     state = read_state(str(a / name(0)))
     assert int(state["attrs"]["step"]) == 7
 

@@ -92,7 +92,7 @@ def test_profile_only_outputs_and_restart_continue_the_sidecar(tmp_path):
     out(make_frame(cfg, 300, 0.002, 2), snapshot=False)
     check_sidecar(tmp_path / "run.xdmf", ["run_0000.h5"], 300, 2)
     before = ET.parse(tmp_path / "run.xdmf").getroot()
-    (tmp_path / "run_cells.h5").unlink()
+    (tmp_path / "run.cells.h5").unlink()
     again = output.Output(MPI.COMM_SELF, str(tmp_path), "run", cfg, 300, first_index=2)
     again(make_frame(cfg, 300, 0.003, 3), snapshot=True)
     grids = check_sidecar(tmp_path / "run.xdmf", ["run_0000.h5", "run_0002.h5"], 300, 2)

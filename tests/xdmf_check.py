@@ -44,7 +44,7 @@ def check_sidecar(xdmf, files, n, dim):
     assert len(collection) == 1 and collection[0].get("CollectionType") == "Temporal"
     grids = [g for g in root.iter("Grid") if g.get("GridType") == "Uniform"]
     assert [g.get("Name") for g in grids] == list(files)
-    cells_file = xdmf.stem + "_cells.h5"
+    cells_file = xdmf.stem + ".cells.h5"
     times = [float(g.find("Time").get("Value")) for g in grids]
     assert times == sorted(times)
     comps = ["v" + c for c in "xyz"[:dim]]

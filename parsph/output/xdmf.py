@@ -5,7 +5,7 @@ the profile and its error travel as an Information element, so that scripts
 can compare ParaView's view of the particles with parsph's profile.
 
 Every grid's topology is N one-point cells (Polyvertex) with an explicit
-connectivity 0 .. N-1, held once per run in ``<name>_cells.h5``: without a
+connectivity 0 .. N-1, held once per run in ``<name>.cells.h5``: without a
 connectivity ParaView's default reader (Xdmf3ReaderS) builds the points but no
 cells, and draws nothing.
 """
@@ -68,7 +68,7 @@ CELLS_CHUNK = 1 << 22   # rows written at a time: rank 0's memory stays small fo
 
 def cells_name(stem):
     """The file of a run's connectivity, beside its sidecar ``<stem>.xdmf``."""
-    return stem + "_cells.h5"
+    return stem + ".cells.h5"
 
 
 def cells_dtype(n):
@@ -127,7 +127,7 @@ def xdmf_grid(entry, cells=None, ncells=None):
 
 def write_xdmf(path, entries):
     """Rewrite the ParaView sidecar ``<stem>.xdmf``: one point set per snapshot, in time order (atomic
-    rename); ``<stem>_cells.h5`` gets the connectivity when it does not hold it yet."""
+    rename); ``<stem>.cells.h5`` gets the connectivity when it does not hold it yet."""
     root = ET.Element("Xdmf", Version="3.0")
     series = ET.SubElement(ET.SubElement(root, "Domain"), "Grid", Name="particles", GridType="Collection",
                            CollectionType="Temporal")
