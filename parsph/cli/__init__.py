@@ -1,5 +1,7 @@
 """The ``parsph`` command: the parser (:mod:`.command`) and one module per command (:mod:`.run`,
-:mod:`.report`; converge's in :mod:`parsph.studies.converge`), the exit codes (:mod:`.exits`).
+:mod:`.report` and :mod:`.particles_plot`; converge's in :mod:`parsph.studies.converge`), what a
+run prints (:mod:`.progress`), compiling the loops ahead (:mod:`.warm`), the exit codes
+(:mod:`.exits`).
 
 The top layer: may import every other.
 """
