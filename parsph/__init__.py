@@ -1,2 +1,9 @@
 """parsph: SPH for the solid phase of granular two-fluid models."""
 __version__ = "0.1.0"
+
+from .numba_cache import keep_in_step as _keep_in_step
+
+try:
+    _keep_in_step()  # numba's cached loops were built from these sources, or go
+except Exception:  # noqa: BLE001 - a cache that cannot be checked is only slower or stale, as numba leaves it
+    pass

@@ -1,18 +1,24 @@
 """Open a run's XDMF sidecar in ParaView's default reader and print what it shows.
 
     pvpython scripts/paraview_check.py OUT/couette_paper.xdmf     (or the output directory)
+    xvfb-run -a pvpython scripts/paraview_check.py --screenshot FILE.png OUT
 
 Runs under ParaView's Python (Debian: ``apt-get install paraview python3-paraview``),
-not parsph's virtual environment. For every time step it prints the point arrays
-ParaView reads (components and range) and checks that id, kind, theta, vx, vy
-(vz in 3-D) and the 3-component ``velocity`` vector (the active vectors, for
-glyphs) are there, and that the Glyph filter accepts ``velocity`` as its
-orientation. For the last step it bins the fluid points in x as parsph's
-profile does (bins of L / Nx; Eq. (8)'s reference and the scale come with the
-step's ``parsph.profile`` Information element) and prints the max and RMS error
-of the scene's error field computed from ParaView's arrays, beside the error
-parsph recorded. Exit status: 0 when every step shows every array, 1 otherwise,
-2 on bad input.
+not parsph's virtual environment. For every time step it prints the points and
+cells ParaView builds (one cell per point: without cells the render view stays
+empty), the point arrays it reads (components and range), and checks that id,
+kind, theta, vx, vy (vz in 3-D) and the 3-component ``velocity`` vector (the
+active vectors, for glyphs) are there, and that the Glyph filter accepts
+``velocity`` as its orientation. For the last step it bins the fluid points in
+x as parsph's profile does (bins of L / Nx; Eq. (8)'s reference and the scale
+come with the step's ``parsph.profile`` Information element) and prints the max
+and RMS error of the scene's error field computed from ParaView's arrays,
+beside the error parsph recorded. ``--screenshot FILE.png`` renders the last
+step as a user sees it after Apply (the default representation, coloured by
+vy, camera reset; no axes, no colour bar) and prints the fraction of its pixels
+that differ from the background (it needs a display: xvfb-run on a server).
+Exit status: 0 when every step shows every array in one cell per point, 1
+otherwise, 2 on bad input.
 """
 import glob
 import json
@@ -48,7 +54,7 @@ def steps_of(xdmf):
 
 
 def point_data(reader, t):
-    """The reader's output at time t as (points (N, 3), {name: array}, active vectors name)."""
+    """The reader's output at time t as (points (N, 3), {name: array}, active vectors name, cells)."""
     from vtkmodules.util.numpy_support import vtk_to_numpy
     reader.UpdatePipeline(t)
     data = reader.GetClientSideObject().GetOutputDataObject(0)
@@ -59,7 +65,35 @@ def point_data(reader, t):
     pd = data.GetPointData()
     arrays = {pd.GetArrayName(i): vtk_to_numpy(pd.GetArray(i)) for i in range(pd.GetNumberOfArrays())}
     vectors = pd.GetVectors().GetName() if pd.GetVectors() is not None else None
-    return vtk_to_numpy(data.GetPoints().GetData()), arrays, vectors
+    return vtk_to_numpy(data.GetPoints().GetData()), arrays, vectors, data.GetNumberOfCells()
+
+
+def screenshot(reader, t, png):
+    """Render step t as the GUI shows it after Apply (default representation, coloured by vy), save
+    it to ``png`` and return the fraction of its pixels that differ from the background colour."""
+    import numpy as np
+    from paraview.simple import ColorBy, CreateView, Delete, SaveScreenshot, Show
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOImage import vtkPNGReader
+    view = CreateView("RenderView")
+    view.OrientationAxesVisibility = 0
+    view.ViewSize = [640, 480]
+    view.ViewTime = t
+    rep = Show(reader, view)
+    ColorBy(rep, ("POINTS", "vy"))
+    rep.SetScalarBarVisibility(view, False)
+    view.ResetCamera()
+    SaveScreenshot(png, view, ImageResolution=[640, 480], TransparentBackground=0)
+    r = vtkPNGReader()
+    r.SetFileName(png)
+    r.Update()
+    img = r.GetOutput()
+    w, h, _ = img.GetDimensions()
+    pixels = vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h * w, -1)[:, :3].astype(float)
+    background = np.array(view.Background) * 255.0
+    Delete(rep)
+    Delete(view)  # a view left at exit aborts the process (GLXBadContext) under xvfb
+    return float(np.mean(np.abs(pixels - background).max(axis=1) > 8.0))
 
 
 def glyph_points(reader, t):
@@ -97,6 +131,9 @@ def profile_error(points, arrays, prof):
 
 
 def main(argv):
+    png = None
+    if len(argv) == 3 and argv[0] == "--screenshot":
+        png, argv = argv[1], argv[2:]
     if len(argv) != 1 or argv[0].startswith("-"):
         print(__doc__.strip().split("\n\n")[1], file=sys.stderr)
         return 2
@@ -108,7 +145,7 @@ def main(argv):
     print(f"file: {xdmf}: {len(steps)} time step(s)")
     ok = True
     for t, dim, _ in steps:
-        points, arrays, vectors = point_data(reader, t)
+        points, arrays, vectors, cells = point_data(reader, t)
         want = ["id", "kind", "theta", "velocity"] + ["v" + c for c in "xyz"[:dim]]
         missing = [a for a in want if a not in arrays]
         bad_vector = "velocity" in arrays and (arrays["velocity"].ndim != 2 or arrays["velocity"].shape[1] != 3)
@@ -117,7 +154,10 @@ def main(argv):
             comps = 1 if a.ndim == 1 else a.shape[1]
             lo, hi = (float(a.min()), float(a.max())) if a.size else (float("nan"),) * 2
             shown.append(f"{name} ({comps}{', vectors' if name == vectors else ''}) [{lo:.6g}, {hi:.6g}]")
-        print(f"t = {t!r} s: {len(points)} points; " + "; ".join(shown))
+        print(f"t = {t!r} s: {len(points)} points, {cells} cells; " + "; ".join(shown))
+        if cells != len(points):
+            ok = False
+            print(f"  {cells} cells for {len(points)} points: ParaView draws only cells")
         if missing or bad_vector or vectors != "velocity":
             ok = False
             print(f"  missing: {', '.join(missing) or 'none'}; velocity is the active 3-component vector: "
@@ -127,7 +167,7 @@ def main(argv):
         glyphs = glyph_points(reader, t)
         print(f"Glyph filter oriented by velocity at t = {t!r} s: {glyphs} points of arrows")
         ok = ok and glyphs > 0
-        points, arrays, _ = point_data(reader, t)
+        points, arrays, _, _ = point_data(reader, t)
         if not np.isfinite(np.array(prof["exact"], dtype=float)).any():
             print(f"profile error at t = {t!r} s: the scene has no reference")
         else:
@@ -135,6 +175,9 @@ def main(argv):
             print(f"profile error of {prof['field']} at t = {t!r} s (last step), relative to {prof['scale']:.4g}: "
                   f"max {emax:.6e}, rms {erms:.6e} from ParaView's points; "
                   f"parsph: max {prof['err_max']:.6e}, rms {prof['err_rms']:.6e}")
+        if png is not None:
+            drawn = screenshot(reader, t, png)
+            print(f"screenshot of t = {t!r} s: {png}: {drawn:.4f} of the pixels differ from the background")
     print("all arrays present on every step" if ok else "some arrays are missing")
     return 0 if ok else 1
 

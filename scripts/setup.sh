@@ -6,6 +6,9 @@
 #            libhdf5-openmpi-dev pkg-config), installed with apt-get as root
 #   python : a virtual environment in .venv with scripts/requirements.txt,
 #            h5py built against the MPI-enabled HDF5, and parsph (editable)
+#   loops  : parsph's numba loops compiled into numba's cache (__pycache__
+#            beside the sources) by tiny runs of run/*.toml (parsph.cli.warm),
+#            so that no run compiles; again after a change of parsph/ or run/
 #
 # Environment: PARSPH_VENV (default .venv), PARSPH_CACHE (default
 # ~/.cache/parsph: the built h5py wheel, reused by later clones),
@@ -24,7 +27,18 @@ die() { echo "setup: error: $*" >&2; exit 1; }
 # Fingerprint of everything that decides the environment's content.
 stamp_key=$(cat "$ROOT/scripts/requirements.txt" "$ROOT/pyproject.toml" "$ROOT/scripts/setup.sh" | sha256sum | cut -c1-16)
 STAMP=$VENV/.parsph-setup-$stamp_key
+# Fingerprint of what decides the compiled loops: parsph's sources and the run files warmed.
+loops_key=$(cd "$ROOT" && find parsph run -name '*.py' -o -name '*.toml' | LC_ALL=C sort | xargs cat | sha256sum | cut -c1-16)
+LOOPS=$VENV/.parsph-loops-$loops_key${NUMBA_CACHE_DIR:+-$(echo "$NUMBA_CACHE_DIR" | sha256sum | cut -c1-8)}
+warm_loops() {
+    [ -f "$LOOPS" ] && return 0
+    say "compiling parsph's loops into numba's cache (a minute or two, once per change of parsph/ or run/)"
+    "$VENV/bin/python" -m parsph.cli.warm "$ROOT/run" || die "compiling the loops failed"
+    rm -f "$VENV"/.parsph-loops-*
+    touch "$LOOPS"
+}
 if [ -f "$STAMP" ] && command -v mpirun >/dev/null && [ -x "$VENV/bin/parsph" ]; then
+    warm_loops
     exit 0
 fi
 
@@ -72,4 +86,5 @@ fi
 "$PY" -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e "$ROOT"
 rm -f "$VENV"/.parsph-setup-*
 touch "$STAMP"
+warm_loops
 say "ready: $VENV"

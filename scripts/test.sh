@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Set up whatever is missing and run the whole test suite:
-#   1. serial tests (they also launch small mpirun jobs as subprocesses)
+#   1. serial tests (they also launch small mpirun jobs as subprocesses), in
+#      PARSPH_TEST_WORKERS (default 2) pytest-xdist workers, one test file per
+#      worker at a time (a file's module fixtures run once); 0: in this process
 #   2. the MPI-marked tests under mpirun -n 2 and -n 3 (pytest-mpi)
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -9,7 +11,7 @@ bash scripts/setup.sh
 source scripts/mpienv.sh
 PY=.venv/bin/python
 echo "== serial tests"
-$PY -m pytest -q tests "$@"
+$PY -m pytest -q -n "${PARSPH_TEST_WORKERS:-2}" --dist loadfile tests "$@"
 for n in 2 3; do
     echo "== MPI tests on $n ranks"
     # pytest-mpi: only tests marked mpi; each rank runs them on COMM_WORLD

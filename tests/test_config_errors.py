@@ -1,16 +1,22 @@
 """Bad run files and options: exit code 2 and one stderr line naming the key, no traceback.
 
-Every case runs the real CLI (``python -m parsph run FILE --out DIR``) as a subprocess; the
-subprocesses of the module start together (a few at a time) in one fixture, since each one
-spends most of its second starting Python and MPI.
+Every case runs the real CLI (``parsph.cli.main(["run", FILE, "--out", DIR, ...])``, what
+``python -m parsph`` calls) with its output captured; all the cases of the module run in one
+subprocess (mpi_helpers/cli_batch.py), since a process spends most of its second starting
+Python and MPI. The valid override, the positive control, runs as a process of its own.
 """
+import json
 import re
+import subprocess
+import sys
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
 from parsph.errors import ConfigError
-from conftest import PAPER_TOML, run_cli
+from conftest import PAPER_TOML, ROOT, cli_env, run_cli
+
+BATCH = ROOT / "tests" / "mpi_helpers" / "cli_batch.py"
 
 PAPER = PAPER_TOML.read_text()
 
@@ -94,9 +100,14 @@ def results(tmp_path_factory):
     ok_out = base / "ok"
     jobs["valid_override"] = ["run", str(PAPER_TOML), "--out", str(ok_out), "--quiet",
                               "--set", "output.t_end=1e-4", "--set", "output.times=[1e-4]"]
-    with ThreadPoolExecutor(max_workers=3) as pool:
-        futures = {name: pool.submit(run_cli, *args, timeout=120) for name, args in jobs.items()}
-        res = {name: f.result() for name, f in futures.items()}
+    valid = jobs.pop("valid_override")
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        ok = pool.submit(run_cli, *valid, timeout=120)
+        batch = subprocess.run([sys.executable, str(BATCH)], input=json.dumps(jobs), cwd=ROOT, env=cli_env(),
+                               capture_output=True, text=True, timeout=300)
+        assert batch.returncode == 0, batch.stderr
+        res = {name: tuple(r) for name, r in json.loads(batch.stdout).items()}
+        res["valid_override"] = ok.result()
     res["_ok_out"] = ok_out
     res["_existing"] = base / "out_existing_output" / "couette_paper_0000.h5"
     return res
@@ -130,7 +141,7 @@ def test_valid_override_runs(results):
     assert "10 steps" in out
     # one file per output time: the single output (t = 1e-4 s) is output 0000, complete (renamed)
     files = sorted(p.name for p in results["_ok_out"].iterdir())
-    assert files == ["couette_paper.xdmf", "couette_paper_0000.h5"], files
+    assert files == ["couette_paper.cells.h5", "couette_paper.xdmf", "couette_paper_0000.h5"], files
 
 
 def test_set_overrides_change_config(paper_cfg):

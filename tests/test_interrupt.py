@@ -332,7 +332,7 @@ def test_stop_requested_on_one_rank_in_process(mpi_tmp_path):
     first_seen = comm.bcast(seen[0] if seen else None, root=comm.size - 1)
     assert first_seen is not None and first_seen <= stopped <= first_seen + 1, (first_seen, stopped)
     comm.Barrier()
-    assert sorted(os.listdir(a)) == [f"{C.STEM}.xdmf", name(0)]
+    assert sorted(os.listdir(a)) == [f"{C.STEM}.cells.h5", f"{C.STEM}.xdmf", name(0)]
     state = read_state(str(a / name(0)))
     assert int(state["attrs"]["step"]) == stopped
 

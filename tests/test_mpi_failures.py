@@ -157,6 +157,7 @@ def test_unfinished_part_file_is_debris(tmp_path):
     r = launch.run(launch.mpirun_cmd(2, *launch.parsph_cmd("run", launch.PAPER, *sets(), "--out", out,
                                                             "--quiet")), timeout=HANG_GUARD)
     assert r.returncode == 0, r
-    assert sorted(p.name for p in out.iterdir()) == ["couette_paper.xdmf", "couette_paper_0000.h5"], r
+    assert sorted(p.name for p in out.iterdir()) == ["couette_paper.cells.h5", "couette_paper.xdmf",
+                                                      "couette_paper_0000.h5"], r
     with h5py.File(out / "couette_paper_0000.h5", "r") as f:
         assert f.attrs["step"] == 50 and "particles" in f

@@ -94,9 +94,9 @@ def sorted_particles(data):
 
 @pytest.mark.parametrize("name", list(RUNS))
 def test_directory_layout(runs, name):
-    """Exactly the two outputs and the sidecar, all complete: no .part left behind."""
+    """Exactly the two outputs, the sidecar and its connectivity, all complete: no .part left behind."""
     d = runs[name][0]
-    assert sorted(p.name for p in d.iterdir()) == sorted(FILES + [f"{STEM}.xdmf"])
+    assert sorted(p.name for p in d.iterdir()) == sorted(FILES + [f"{STEM}.xdmf", f"{STEM}.cells.h5"])
     assert [Path(f).name for f in output.output_files(str(d))] == FILES
     assert Path(output.last_snapshot(str(d))).name == FILES[-1]
 
@@ -296,7 +296,7 @@ def test_check_exit_codes(runs, name):
 def test_rerun_without_force_refused_then_force_overwrites(runs, tmp_path):
     """Existing outputs under mpirun -n 2: exit 2 without --force (the files untouched), 0 with it."""
     d = runs["mpi2"][0]
-    before = {f: (d / f).read_bytes() for f in FILES + [f"{STEM}.xdmf"]}
+    before = {f: (d / f).read_bytes() for f in FILES + [f"{STEM}.xdmf", f"{STEM}.cells.h5"]}
     r = run_parsph(2, d)
     assert r.returncode == 2, r
     assert launch.count_lines(r.stderr, "parsph: error") == 1, r

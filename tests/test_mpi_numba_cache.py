@@ -4,9 +4,14 @@ Serial pytest launching the processes itself (skipped inside an mpirun job):
 
     .venv/bin/python -m pytest -q tests/test_mpi_numba_cache.py
 
-The module compiles once, on 3 ranks at once, into a fresh NUMBA_CACHE_DIR of its own. numba keeps at most
-NUMBA_FUNCTION_CACHE_SIZE (default 128) unpickled dispatchers alive; setting it
-low reproduces in three runs what the shared cache reaches after ~128 runs.
+The module's first job is a 3-rank ``parsph run`` on a NUMBA_CACHE_DIR of its own
+that lacks the density and momentum passes: every rank compiles them and writes
+the same entries at once (the rest of the cache is a copy of parsph's own, which
+the set-up fills, so that the module compiles only what it tests; without a
+set-up the job compiles everything, as before). That run also shows what a run
+that compiles prints. numba keeps at most NUMBA_FUNCTION_CACHE_SIZE (default
+128) unpickled dispatchers alive; setting it low reproduces in three runs what
+the shared cache reaches after ~128 runs.
 """
 import re
 import sys
@@ -17,9 +22,12 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402
 
+from parsph.cli.progress import COMPILING  # noqa: E402
+
 pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 
 FEW_STEPS = str(launch.HELPERS / "few_steps.py")
+FRESH = ("equations.density_serial-", "equations.momentum_serial-")  # compiled by the first job, on 3 ranks at once
 
 
 def data_files(cache, function):
@@ -32,12 +40,17 @@ def job(cache, n=3, **env):
 
 @pytest.fixture(scope="module")
 def first_job(tmp_path_factory):
-    """A 3-rank job on a fresh cache: all ranks compile and write the same entries at once.
+    """A 3-rank run of 3 steps, a progress line after each, on a cache without the passes of FRESH.
 
-    Compiling everything takes most of a minute, so the module compiles once and every test
-    below starts from this cache (the limit only catches a hang)."""
+    The module compiles once and every test below starts from this cache (the limit only catches a hang)."""
     cache = tmp_path_factory.mktemp("numba_cache") / "numba"
-    return cache, job(cache, NUMBA_FUNCTION_CACHE_SIZE=2)
+    launch.seed_cache(cache, skip=FRESH)
+    assert not any(data_files(cache, f) for f in ("density_serial", "momentum_serial"))
+    out = tmp_path_factory.mktemp("first_run")
+    sets = ["domain.Ly=0.0024", "output.t_end=3e-5", "output.times=[3e-5]", "output.progress_interval=1e-6"]
+    cmd = launch.parsph_cmd("run", launch.PAPER, "--out", out, *[a for s in sets for a in ("--set", s)])
+    return cache, launch.run(launch.mpirun_cmd(3, *cmd), timeout=300, NUMBA_CACHE_DIR=cache,
+                             NUMBA_FUNCTION_CACHE_SIZE=2)
 
 
 def ranks_ok(r, n=3):
@@ -47,11 +60,27 @@ def ranks_ok(r, n=3):
 
 
 def test_ranks_share_one_cache_under_mpirun(first_job):
-    """Two successive 3-rank jobs on one fresh cache: every rank of both jobs runs."""
+    """Two successive 3-rank jobs on one fresh cache: both run to the end on every rank."""
     cache, first = first_job
-    assert ranks_ok(first), f"job 1: {first}"
+    assert first.returncode == 0 and "done: 3 steps in" in first.stdout, f"job 1: {first}"
     second = job(cache, NUMBA_FUNCTION_CACHE_SIZE=2)
     assert ranks_ok(second), f"job 2: {second}"
+
+
+def test_a_run_that_compiles_says_so_and_gives_no_rate_for_its_first_step(first_job):
+    """One 'compiling the loops' line, after the banner and before the first progress line; the
+    line after the first step has no rate and no time left, those after it have both."""
+    _, first = first_job
+    assert first.returncode == 0, first
+    lines = first.stdout.splitlines()
+    assert lines.count(f"  {COMPILING}") == 1, first
+    steps = [k for k, ln in enumerate(lines) if ln.startswith("  step")]
+    banner = next(k for k, ln in enumerate(lines) if ln.startswith("parsph couette:"))
+    assert banner < lines.index(f"  {COMPILING}") < steps[0], first
+    assert [lines[k].split()[1] for k in steps] == ["1/3", "2/3", "3/3"], first
+    assert "first step (compiling took" in lines[steps[0]] and "left" not in lines[steps[0]], lines[steps[0]]
+    for k in steps[1:]:
+        assert re.search(r"particle-steps/s  left \d+m\d\ds$", lines[k]), lines[k]
 
 
 def test_compiled_equations_are_reused_by_the_next_process(first_job):

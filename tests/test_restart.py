@@ -322,6 +322,6 @@ def test_restart_in_process_on_comm_world(mpi_tmp_path):
     assert sim2.n_total == sim.n_total
     sim2.run(output=Output(comm, str(b), C.STEM, cfg, sim2.n_total, first_index=1))
     comm.Barrier()
-    assert sorted(os.listdir(b)) == [f"{C.STEM}.xdmf", name(1)]
+    assert sorted(os.listdir(b)) == [f"{C.STEM}.cells.h5", f"{C.STEM}.xdmf", name(1)]
     got, want = read_snapshot(str(b / name(1))), read_snapshot(str(a / name(1)))
     C.assert_same_particles(got, want, f"in-process restart on {comm.size} rank(s)")

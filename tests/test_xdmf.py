@@ -85,13 +85,15 @@ def test_sidecar_and_files_from_frames(tmp_path, dim):
 
 def test_profile_only_outputs_and_restart_continue_the_sidecar(tmp_path):
     """Outputs without particles are not grids; an Output continuing at index 2 keeps the grids
-    of the files before it (read back from them) and appends its own."""
+    of the files before it (read back from them) and appends its own. The restart finds no
+    connectivity file (as beside the outputs of a parsph that wrote none) and writes it."""
     cfg = make_cfg(2)
     out = output.Output(MPI.COMM_SELF, str(tmp_path), "run", cfg, 300)
     out(make_frame(cfg, 300, 0.001, 1), snapshot=True)
     out(make_frame(cfg, 300, 0.002, 2), snapshot=False)
     check_sidecar(tmp_path / "run.xdmf", ["run_0000.h5"], 300, 2)
     before = ET.parse(tmp_path / "run.xdmf").getroot()
+    (tmp_path / "run.cells.h5").unlink()
     again = output.Output(MPI.COMM_SELF, str(tmp_path), "run", cfg, 300, first_index=2)
     again(make_frame(cfg, 300, 0.003, 3), snapshot=True)
     grids = check_sidecar(tmp_path / "run.xdmf", ["run_0000.h5", "run_0002.h5"], 300, 2)

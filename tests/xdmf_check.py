@@ -5,7 +5,9 @@ What ParaView 5.11's default reader (Xdmf3ReaderS) accepts, found with pvpython:
 plain HDF DataItems with NumberType and Precision, hyperslabs only in Xdmf3's
 content syntax ``file:path|start:stride:count:dims`` (ItemType="HyperSlab" and
 "Function" items are skipped: their type is unknown before they are read), and an
-Information element only with a Value attribute.
+Information element only with a Value attribute; and it makes cells only from an
+explicit connectivity (a Polyvertex topology without one gives N points, 0 cells
+and an empty render view).
 """
 import json
 import xml.etree.ElementTree as ET
@@ -14,7 +16,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-NUMBER_TYPES = {("f", 8): "Float", ("f", 4): "Float", ("i", 8): "Int", ("i", 1): "Char", ("u", 1): "UChar"}
+NUMBER_TYPES = {("f", 8): "Float", ("f", 4): "Float", ("i", 8): "Int", ("i", 4): "Int", ("i", 1): "Char",
+                ("u", 1): "UChar"}
 
 
 def parse_item(item):
@@ -41,6 +44,7 @@ def check_sidecar(xdmf, files, n, dim):
     assert len(collection) == 1 and collection[0].get("CollectionType") == "Temporal"
     grids = [g for g in root.iter("Grid") if g.get("GridType") == "Uniform"]
     assert [g.get("Name") for g in grids] == list(files)
+    cells_file = xdmf.stem + ".cells.h5"
     times = [float(g.find("Time").get("Value")) for g in grids]
     assert times == sorted(times)
     comps = ["v" + c for c in "xyz"[:dim]]
@@ -49,6 +53,18 @@ def check_sidecar(xdmf, files, n, dim):
             assert float(g.find("Time").get("Value")) == f.attrs["time"]
             topo = g.find("Topology")
             assert topo.get("TopologyType") == "Polyvertex" and topo.get("NumberOfElements") == str(n)
+            assert topo.get("NodesPerElement") == "1"
+            # one cell per point, listed explicitly: without it ParaView's default reader draws nothing
+            items = topo.findall("DataItem")
+            assert len(items) == 1, "the topology has no connectivity"
+            cfile, cpath, slab = parse_item(items[0])
+            assert cfile == cells_file and cpath == "/connectivity" and slab is None, items[0].text
+            assert items[0].get("Format") == "HDF" and items[0].get("Dimensions") == str(n)
+            with h5py.File(xdmf.parent / cfile, "r") as c:
+                conn = c[cpath][()]
+            assert items[0].get("NumberType") == NUMBER_TYPES[(conn.dtype.kind, conn.dtype.itemsize)]
+            assert int(items[0].get("Precision")) == conn.dtype.itemsize
+            assert np.array_equal(conn, np.arange(n)), "cell k must be the particle of row k"
             assert g.find("Geometry").get("GeometryType") == ("XY" if dim == 2 else "XYZ")
             # the profile Information: what a script needs to recompute parsph's error from the points
             info = [i for i in g.findall("Information") if i.get("Name") == "parsph.profile"]

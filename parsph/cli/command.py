@@ -1,9 +1,9 @@
-"""The ``parsph`` command: run, check, plot.
+"""The ``parsph`` command: run, check, converge, plot.
 
     parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
     parsph check OUTPUT [--tol 0.02]
     parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
-    parsph plot OUTPUT [--png FILE]
+    parsph plot OUTPUT [--png FILE] [--particles [--field vy|vx|theta] [--times T ...]]
 
 The commands live in :mod:`parsph.cli.run` (run), :mod:`parsph.cli.converge`
 (converge) and :mod:`parsph.cli.report` (check, plot); the exit codes in
@@ -16,6 +16,7 @@ Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
 import argparse
 import sys
 
+from parsph import __version__
 from parsph.errors import UsageError
 from .converge import cmd_converge
 from .exits import EXIT_BAD_INPUT
@@ -23,9 +24,14 @@ from .report import cmd_check, cmd_plot
 from .run import cmd_run
 
 
+DESCRIPTION = ("parsph: parallel SPH for the solid phase of granular two-fluid models. Four commands: "
+               "run, check, converge, plot; 'parsph COMMAND --help' for the options of one.")
+
+
 def build_parser():
-    p = argparse.ArgumentParser(prog="parsph", description=__doc__.split("\n")[0])
-    sub = p.add_subparsers(dest="command", required=True)
+    p = argparse.ArgumentParser(prog="parsph", description=DESCRIPTION)
+    p.add_argument("--version", action="version", version=f"parsph {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     r = sub.add_parser("run", help="run a case (under mpirun for several ranks)")
     r.add_argument("config", help="run file (TOML)")
     r.add_argument("--set", action="append", metavar="SECTION.KEY=VALUE", help="override a run-file key")
@@ -58,9 +64,16 @@ def build_parser():
     cv.add_argument("--dt-scaling", choices=("limit", "dx2"), default="dx2",
                     help="dx2 (default): dt ~ dx^2 from the coarsest level's limit, so the time error falls as "
                          "dx^2 at every level; limit: each level at its own stability limit (cheaper; mixed orders)")
-    pl = sub.add_parser("plot", help="PNG of the simulated profiles over the reference")
+    pl = sub.add_parser("plot", help="PNG of the simulated profiles over the reference; with --particles, "
+                                     "one PNG of the particles per output time")
     pl.add_argument("output", help="output directory or file")
-    pl.add_argument("--png", help="PNG path (default next to the outputs)")
+    pl.add_argument("--png", help="PNG path of the profiles (default next to the outputs)")
+    pl.add_argument("--particles", action="store_true",
+                    help="instead: the particles of each output with particles, coloured by --field, walls marked "
+                         "(3-D: the middle z-layer), as DIR/<name>_<field>_NNNN.png")
+    pl.add_argument("--field", choices=("vy", "vx", "theta"), default="vy", help="colour of --particles (default vy)")
+    pl.add_argument("--times", type=float, nargs="+", metavar="T",
+                    help="--particles only at these output times [s] (default: every output with particles)")
     return p
 
 

@@ -88,6 +88,11 @@ def profile_png(first):
 
 
 def cmd_plot(args):
+    if getattr(args, "particles", False):
+        from .particles_plot import plot_particles
+        for png in _read(args.output, lambda p: plot_particles(p, args.field, args.times)):
+            print(f"wrote {png}")
+        return 0
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -17,11 +17,6 @@ from .report import print_table
 RESTART_FREE = ("output", "checks")
 
 
-def _fmt_time(s):
-    s = int(round(s))
-    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"
-
-
 class Signals:
     """SIGINT/SIGTERM set a flag that the time loop polls; the step in hand finishes."""
 
@@ -134,18 +129,37 @@ def _prepare(args):
 def _run(comm, args, say, signals):
     from parsph.output import output_files
     from parsph.simulation.case import run_case
+    from .progress import COMPILING, CompileWatch, Progress
 
+    started = Progress.clock()
     stem = os.path.splitext(os.path.basename(args.config))[0]
     out_dir = _out_dir(args, stem)
-    cfg, state = agree(comm, lambda: _prepare(args))
-
-    def progress(s, rate, eta):
-        of = "" if cfg.dt_auto else f"/{cfg.nsteps}"
-        say(f"  step {s.step:>7d}{of}  t = {s.t:.5f} s  {rate:.3g} particle-steps/s  "
-            f"left {_fmt_time(eta)}")
-
-    run_case(comm, cfg, out_dir, stem, state=state, force=args.force, threads=args.threads,
-             progress=None if args.quiet else progress, stop_requested=signals, say=say)
+    with CompileWatch(note=None if args.quiet else lambda: say(f"  {COMPILING}")) as watch:
+        cfg, state = agree(comm, lambda: _prepare(args))
+        report = _Report(cfg, say, watch, started, args.quiet)
+        run_case(comm, cfg, out_dir, stem, state=state, force=args.force, threads=args.threads, progress=report,
+                 stop_requested=signals, say=say, report=report)
     if comm.rank == 0 and output_files(out_dir):
         print_table(out_dir)
     return 0
+
+
+class _Report:
+    """What ``parsph run`` prints of the loop: progress lines from steady steps (:class:`.progress.Progress`),
+    a note while numba compiles (the CompileWatch, armed once the banner is out), the summary."""
+
+    def __init__(self, cfg, say, watch, started, quiet):
+        self.cfg, self.say, self.watch, self.started, self.quiet = cfg, say, watch, started, quiet
+        self.progress = None
+
+    def start(self, sim):
+        from .progress import Progress
+        self.watch.arm()
+        self.progress = Progress(self.cfg, sim.n_total, self.say, self.watch, self.started)
+
+    def __call__(self, sim, *_):
+        if not self.quiet:
+            self.progress(sim)
+
+    def summary(self, sim, steps_done):
+        return self.progress.summary(sim, steps_done)

@@ -4,6 +4,7 @@ Directory layout (docs/output.md has the table with units)::
 
     DIR/<name>_NNNN.h5     output k = NNNN: profile and particle snapshot at one time
     DIR/<name>.xdmf        ParaView sidecar: the snapshots as a time series of points
+    DIR/<name>.cells.h5    the sidecar's connectivity 0 .. N-1 (one point cell per particle), written once
 
 Each file is written as ``<name>_NNNN.h5.part`` and renamed when complete and
 closed (rank 0 fsyncs the file before the rename and the directory after it),

@@ -3,11 +3,17 @@
 Each output file with particles is one grid of the temporal collection;
 the profile and its error travel as an Information element, so that scripts
 can compare ParaView's view of the particles with parsph's profile.
+
+Every grid's topology is N one-point cells (Polyvertex) with an explicit
+connectivity 0 .. N-1, held once per run in ``<name>.cells.h5``: without a
+connectivity ParaView's default reader (Xdmf3ReaderS) builds the points but no
+cells, and draws nothing.
 """
 import json
 import os
 import xml.etree.ElementTree as ET
 
+import h5py
 import numpy as np
 
 from .layout import FILE_DTYPES
@@ -56,14 +62,52 @@ def _data_item(parent, fname, path, shape, dtype, column=None):
     return item
 
 
-def xdmf_grid(entry):
-    """One time step: N points with id, kind, theta, the velocity vector and its components."""
+CELLS_DATASET = "/connectivity"
+CELLS_CHUNK = 1 << 22   # rows written at a time: rank 0's memory stays small for any N
+
+
+def cells_name(stem):
+    """The file of a run's connectivity, beside its sidecar ``<stem>.xdmf``."""
+    return stem + ".cells.h5"
+
+
+def cells_dtype(n):
+    return np.dtype(np.int32 if n < 2 ** 31 else np.int64)
+
+
+def write_cells(path, n):
+    """``path``:/connectivity = 0 .. n-1 (one Polyvertex cell per particle), unless it holds that already."""
+    dtype = cells_dtype(n)
+    try:
+        with h5py.File(path, "r") as f:
+            d = f[CELLS_DATASET]
+            if d.shape == (n,) and d.dtype == dtype:
+                return
+    except (OSError, KeyError):
+        pass
+    with h5py.File(path + ".part", "w") as f:
+        d = f.create_dataset(CELLS_DATASET, (n,), dtype=dtype)
+        d.attrs["content"] = "XDMF Polyvertex connectivity: cell k is particle row k of every output file"
+        for a in range(0, n, CELLS_CHUNK):
+            b = min(n, a + CELLS_CHUNK)
+            d[a:b] = np.arange(a, b, dtype=dtype)
+    os.replace(path + ".part", path)
+
+
+def xdmf_grid(entry, cells=None, ncells=None):
+    """One time step: N points with id, kind, theta, the velocity vector and its components, and N
+    one-point cells whose connectivity is ``cells``:/connectivity (of length ``ncells``, at least N)."""
     fname, n, dim = entry["name"], entry["n"], entry["dim"]
     grid = ET.Element("Grid", Name=fname, GridType="Uniform")
     ET.SubElement(grid, "Time", Value=repr(entry["time"]))
     # Xdmf3 requires the Value attribute (text content aborts ParaView's default reader)
     ET.SubElement(grid, "Information", Name="parsph.profile", Value=json.dumps(entry["profile"]))
-    ET.SubElement(grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(n), NodesPerElement="1")
+    topo = ET.SubElement(grid, "Topology", TopologyType="Polyvertex", NumberOfElements=str(n), NodesPerElement="1")
+    if cells is not None:
+        ncells = n if ncells is None else ncells
+        item = _data_item(topo, cells, CELLS_DATASET, (n,), cells_dtype(ncells))
+        if ncells != n:  # the first n rows of a longer connectivity
+            item.text += f"|0:1:{n}:{ncells}"
     geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
     _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"])
 
@@ -82,13 +126,18 @@ def xdmf_grid(entry):
 
 
 def write_xdmf(path, entries):
-    """Rewrite the ParaView sidecar: one point set per snapshot, in time order (atomic rename)."""
+    """Rewrite the ParaView sidecar ``<stem>.xdmf``: one point set per snapshot, in time order (atomic
+    rename); ``<stem>.cells.h5`` gets the connectivity when it does not hold it yet."""
     root = ET.Element("Xdmf", Version="3.0")
     series = ET.SubElement(ET.SubElement(root, "Domain"), "Grid", Name="particles", GridType="Collection",
                            CollectionType="Temporal")
-    for entry in sorted(entries, key=lambda e: e["time"]):
-        if entry["snapshot"]:
-            series.append(xdmf_grid(entry))
+    snaps = [e for e in sorted(entries, key=lambda e: e["time"]) if e["snapshot"]]
+    if snaps:
+        ncells = max(e["n"] for e in snaps)
+        cells = cells_name(os.path.splitext(os.path.basename(path))[0])
+        write_cells(os.path.join(os.path.dirname(path), cells), ncells)
+        for entry in snaps:
+            series.append(xdmf_grid(entry, cells, ncells))
     ET.indent(root)
     with open(path + ".part", "wb") as fh:
         ET.ElementTree(root).write(fh, encoding="utf-8", xml_declaration=True)

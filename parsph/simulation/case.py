@@ -61,13 +61,14 @@ class _Timed:
 
 
 def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, progress=None,
-             stop_requested=None, say=None):
+             stop_requested=None, say=None, report=None):
     """Run ``cfg`` on ``comm`` to its end, writing ``out_dir/<stem>_NNNN.h5`` at its output times.
 
     ``state``: a restart's (``parsph.cli.run.restart_state``), whose outputs continue its numbering;
     ``force``: overwrite earlier outputs (else refused); ``threads``: numba threads per rank;
     ``progress(sim, rate, eta)`` and ``stop_requested()`` go to :meth:`Simulation.run`;
-    ``say(message)``: the warnings, the banner and the summary line (rank 0's, say).
+    ``say(message)``: the warnings, the banner and the summary line (rank 0's, say);
+    ``report``: ``start(sim)`` once the banner is out, ``summary(sim, steps)`` the summary line.
     """
     say = say or (lambda msg: None)
     first = 0 if state is None else int(state["attrs"]["index"]) + 1
@@ -87,12 +88,17 @@ def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, pr
     say(banner(cfg, sim, comm, state, out_dir, stem))
     if not sim.native:
         say(f"parsph: note: the step's messages go through mpi4py, step by step ({sim.native_why})")
+    if report is not None:
+        report.start(sim)
     out = _Timed(Output(comm, out_dir, stem, cfg, sim.n_total, first_index=first))
     step0, cpu0 = sim.step, time.process_time()
     sim.run(output=out, progress=progress, stop_requested=stop_requested)
     result = CaseResult(sim, sim.step - step0, sim.wall_time, time.process_time() - cpu0, tuple(out.times))
-    say(f"done: {result.steps} steps in {result.wall_s:.1f} s ({result.rate:.3g} particle-steps/s; "
-        f"neighbour list built {sim.rebuilds} times)")
+    if report is not None:
+        say(report.summary(sim, result.steps))
+    else:
+        say(f"done: {result.steps} steps in {result.wall_s:.1f} s ({result.rate:.3g} particle-steps/s; "
+            f"neighbour list built {sim.rebuilds} times)")
     return result
 
 

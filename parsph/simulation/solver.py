@@ -340,6 +340,9 @@ class Simulation(CompiledSteps):
         interval = cfg.get("output.progress_interval")
         t_start = last = time.perf_counter()
         step0, tsim0 = self.step, self.t
+        # for progress (parsph.cli.progress): the loop's start, and (step, t, clock) once the run's first
+        # step, which loads or compiles the loops and builds the first list, is done: steps after it are steady
+        self.loop_started, self.steady = t_start, None
         stop = 0
         snapshots = cfg.get("output.snapshots")
         if not self._fresh:
@@ -369,6 +372,8 @@ class Simulation(CompiledSteps):
                 most = min(most or last_step, last_step - self.step)
             self._advance(pending, check_every, most, stop_requested)
             now = time.perf_counter()
+            if self.steady is None:
+                self.steady = (self.step, self.t, now)
             if progress is not None and interval > 0 and now - last >= interval:
                 last = now
                 rate = self.n_total * (self.step - step0) / (now - t_start)

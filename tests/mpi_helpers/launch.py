@@ -7,8 +7,12 @@ a nested ``mpirun`` fail silently.
 
 Launched processes get a numba cache directory of their own (one per test
 session, removed at exit) unless NUMBA_CACHE_DIR is set: these tests are about
-MPI behaviour and must not depend on, or add to, the state of the shared
-``parsph/__pycache__`` (test_mpi_numba_cache.py tests the cache itself).
+MPI behaviour and must not add to the shared ``parsph/__pycache__``
+(test_mpi_numba_cache.py tests the cache itself). It starts as a copy of the
+entries there (scripts/setup.sh compiles the loops into it), so that a
+session compiles only what the set-up did not; the copy saves time and
+nothing else, since numba checks every entry against the source's content and
+the machine.
 """
 import atexit
 import os
@@ -42,11 +46,31 @@ def under_mpirun():
 _CACHE_DIR = None
 
 
+def seed_cache(dest, skip=()):
+    """Copy the entries of parsph's ``__pycache__`` folders into ``dest`` as numba lays out a
+    NUMBA_CACHE_DIR (a folder per source folder); entries whose file name starts with one of
+    ``skip`` stay out. Without numba's layout function (another numba) nothing is copied."""
+    try:
+        from numba.core.caching import _CacheLocator
+        for src in (REPO / "parsph").rglob("__pycache__"):
+            module = src.parent / "__init__.py"  # any source file of that folder names its cache subpath
+            dst = Path(dest) / _CacheLocator.get_suitable_cache_subpath(str(module))
+            dst.mkdir(parents=True, exist_ok=True)
+            for f in src.glob("*.nb[ic]"):
+                if not f.name.startswith(tuple(skip)):
+                    shutil.copy2(f, dst / f.name)
+    except Exception:  # noqa: BLE001 - an optimisation only
+        pass
+
+
 def private_cache_dir():
+    """The session's numba cache for launched processes, seeded from parsph's own (seed_cache)."""
     global _CACHE_DIR
     if _CACHE_DIR is None:
         _CACHE_DIR = tempfile.mkdtemp(prefix="parsph-test-numba-")
+        os.chmod(_CACHE_DIR, 0o755)
         atexit.register(shutil.rmtree, _CACHE_DIR, True)
+        seed_cache(_CACHE_DIR)
     return _CACHE_DIR
 
 
@@ -115,7 +139,8 @@ def warm_cache(timeout=300):
 
     A cold cache costs each process 20+ s of CPU for compilation (more on a loaded machine), which
     would count against the tests' hang guards; they are about MPI behaviour, not about the
-    compiler. Later processes load the compiled functions from the cache.
+    compiler. Later processes load the compiled functions from the cache (after the set-up, which
+    compiles them into the cache this one is seeded from, the run only loads them).
     """
     global _WARM
     if _WARM:

@@ -10,21 +10,18 @@ Notes on the environment:
   ``os.environ``): a Python process that has initialised MPI as a singleton
   carries C-level Open MPI variables that would make a nested ``mpirun`` fail.
 * Launched processes share one private numba cache directory per test session
-  (removed at exit) unless NUMBA_CACHE_DIR is set, so these tests neither
-  depend on nor add to ``parsph/__pycache__``. The first run of a session pays
-  the compilation (about 10 s).
+  (removed at exit, the same as launch.py's) unless NUMBA_CACHE_DIR is set, so
+  these tests do not add to ``parsph/__pycache__``; it starts as a copy of the
+  entries there, so that only what the set-up did not compile is compiled.
 * Open MPI puts every rank in a process group of its own, so killing
   ``mpirun``'s process group does not reach the ranks (they linger for about a
   second, then exit). :func:`kill_tree` kills mpirun and every descendant by
   process id instead.
 """
-import atexit
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -32,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "mpi_helpers"))
-from launch import MPI_ENV as _LAUNCH_ENV, PAPER, PYTHON, REPO, under_mpirun  # noqa: E402,F401
+from launch import MPI_ENV as _LAUNCH_ENV, PAPER, PYTHON, REPO, private_cache_dir, under_mpirun  # noqa: E402,F401
 
 STEM = "couette_paper"
 DT = 1e-5  # the paper's time step
@@ -59,32 +56,10 @@ def comm_world_case(tmp, names, *over):
     return comm, cfg, dirs
 
 
-_CACHE = None
-
-
 def cache_dir():
-    """The session's private numba cache, seeded with a copy of the entries of parsph's __pycache__ folders.
-
-    The copy only saves compilation time (numba checks every entry against the
-    source and the machine); without it, or if numba's layout changes, the
-    first run compiles.
-    """
-    global _CACHE
-    if _CACHE is None:
-        _CACHE = tempfile.mkdtemp(prefix="parsph-reliability-numba-")
-        os.chmod(_CACHE, 0o755)
-        atexit.register(shutil.rmtree, _CACHE, True)
-        try:
-            from numba.core.caching import _CacheLocator
-            for src in (REPO / "parsph").rglob("__pycache__"):
-                module = src.parent / "__init__.py"  # any source file of that folder names its cache subpath
-                dst = Path(_CACHE) / _CacheLocator.get_suitable_cache_subpath(str(module))
-                dst.mkdir(parents=True, exist_ok=True)
-                for f in src.glob("*.nb[ic]"):
-                    shutil.copy2(f, dst / f.name)
-        except Exception:  # noqa: BLE001 - an optimisation only
-            pass
-    return _CACHE
+    """The session's private numba cache of launched processes (launch.private_cache_dir: one for
+    every helper, seeded with a copy of the entries of parsph's __pycache__ folders)."""
+    return private_cache_dir()
 
 
 def env(**extra):

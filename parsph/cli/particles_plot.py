@@ -1,0 +1,136 @@
+"""``parsph plot --particles``: a PNG per output time of the particles themselves, coloured by a field.
+
+Serial (h5py, matplotlib; no MPI): it reads the output files alone, so it works on a copy of them.
+Axes as in the run: x wall-normal (horizontal), y streamwise (vertical), to scale. Fluid particles are
+coloured by v_x, v_y or theta (one colour scale for every picture of the call, so that they compare);
+wall particles are tan, and the wall planes are lines marked with their velocity. In 3-D the picture
+is a slice: the particles of the lattice layer nearest the middle of z.
+"""
+import os
+import re
+
+import numpy as np
+
+from parsph.errors import UsageError
+
+FIELDS = {"vy": ("velocity", 1, "v_y [m/s]"), "vx": ("velocity", 0, "v_x [m/s]"),
+          "theta": ("theta", None, "theta (volume fraction) [1]")}
+FLUID, MOVING = 0, 2  # particle kinds (docs/output.md)
+WALL_COLOUR = "tan"   # not in the colour map, and not a grey that anti-aliased text makes
+
+
+def field_values(snap, field):
+    key, col, _ = FIELDS[field]
+    a = snap[key]
+    return a[:, col] if col is not None else a
+
+
+def middle_layer(z):
+    """Rows of the particles in the z-layer nearest the middle of their z range (a 3-D slice)."""
+    levels = np.unique(np.round(z, 12))
+    mid = levels[np.argmin(np.abs(levels - 0.5 * (levels[0] + levels[-1])))]
+    return np.abs(z - mid) <= 1e-9 * max(1.0, abs(mid)), mid
+
+
+def snapshot_files(path, times):
+    """(time, file) of the outputs with particles, all or those at ``times`` (to 1e-9 relative)."""
+    import h5py
+    from parsph.output import output_files
+    found = []
+    for fn in output_files(path):
+        with h5py.File(fn, "r") as f:
+            if "particles" in f:
+                found.append((float(f.attrs["time"]), fn))
+    found.sort()
+    if not found:
+        raise UsageError(f"{path}: no output with particles (run with output.snapshots = true)")
+    if not times:
+        return found
+    chosen = []
+    for t in times:
+        match = [tf for tf in found if abs(tf[0] - t) <= 1e-9 * max(abs(t), 1e-300) or tf[0] == t]
+        if not match:
+            raise UsageError(f"--times {t:g}: no output with particles at that time "
+                             f"(there are: {', '.join(f'{tf[0]:g}' for tf in found)})")
+        chosen.append(match[0])
+    return chosen
+
+
+def png_name(h5, field):
+    """DIR/<stem>_<field>_NNNN.png beside DIR/<stem>_NNNN.h5."""
+    m = re.search(r"^(.*)_(\d{4,})\.h5$", os.path.basename(h5))
+    return os.path.join(os.path.dirname(h5), f"{m.group(1)}_{field}_{m.group(2)}.png")
+
+
+def draw(snap, field, limits, png):
+    """One picture: fluid particles coloured by ``field`` within ``limits``, walls tan and marked."""
+    import matplotlib.pyplot as plt
+    a = snap["attrs"]
+    pos, kind = snap["position"], snap["kind"]
+    keep = np.ones(len(kind), bool)
+    where = ""
+    if int(a["dim"]) == 3:
+        keep, zmid = middle_layer(pos[:, 2])
+        where = f", slice z = {zmid * 1e3:.3g} mm"
+    x, y = pos[keep, 0], pos[keep, 1]
+    values, k = field_values(snap, field)[keep], kind[keep]
+    L, Ly = float(a["L"]), float(a["Ly"])
+    xlo, xhi = min(0.0, x.min()), max(L, x.max())
+    width = 6.4
+    height = min(9.0, max(2.5, width * Ly / (xhi - xlo) * 0.85))
+    fig, ax = plt.subplots(figsize=(width, height))
+    ax.set_aspect("equal")
+    ax.set_xlim(xlo * 1e3, xhi * 1e3)
+    ax.set_ylim(0.0, Ly * 1e3)
+    fig.canvas.draw()
+    # round markers about 0.8 lattice spacing wide (points^2), from the axes' size in points
+    bbox = ax.get_window_extent().transformed(fig.dpi_scale_trans.inverted())
+    spacing = np.sqrt((xhi - xlo) * Ly / max(1, len(x)))  # the side of the area per particle
+    side = 72.0 * bbox.width * spacing / (xhi - xlo)
+    s = max(0.05, (0.8 * side) ** 2)
+    fluid = k == FLUID
+    sc = ax.scatter(x[fluid] * 1e3, y[fluid] * 1e3, c=values[fluid], s=s, marker="o", linewidths=0,
+                    cmap="viridis", vmin=limits[0], vmax=limits[1])
+    if (~fluid).any():
+        ax.scatter(x[~fluid] * 1e3, y[~fluid] * 1e3, c=WALL_COLOUR, s=s, marker="o", linewidths=0,
+                   label="wall particles")
+        # the planes x = 0 and x = L that the wall layers bound, each named by its particles' kind
+        vw = float(a.get("V_w", 0.0))
+        for xw, side in ((0.0, x < 0.0), (L, x > L)):
+            if not (side & ~fluid).any():
+                continue
+            moving = (k[side & ~fluid] == MOVING).any()
+            label = f"moving wall, v_y = {vw:g} m/s" if moving else "fixed wall"
+            ax.axvline(xw * 1e3, color="k", lw=1.0)
+            ax.text(xw * 1e3, 0.98 * Ly * 1e3, f" {label} ", rotation=90, va="top",
+                    ha="left" if xw == 0.0 else "right", fontsize=7, color="k",
+                    bbox=dict(facecolor="white", alpha=0.6, lw=0, pad=0.5))
+        ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), fontsize=7, frameon=False)
+    ax.set_xlabel("x (wall-normal) [mm]")
+    ax.set_ylabel("y (streamwise) [mm]")
+    ax.set_title(f"{a.get('scene', '')} t = {float(a['time']):g} s, {len(kind)} particles{where}", fontsize=9,
+                 pad=18 if (~fluid).any() else 6)
+    fig.colorbar(sc, ax=ax, label=FIELDS[field][2])
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
+
+
+def plot_particles(path, field="vy", times=None):
+    """Write one PNG per chosen output time; return their paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    from parsph.output import read_snapshot
+    chosen = snapshot_files(path, times)
+    snaps = [(fn, read_snapshot(fn)) for _, fn in chosen]
+    vals = np.concatenate([field_values(s, field)[s["kind"] == FLUID] for _, s in snaps])
+    vals = vals[np.isfinite(vals)]
+    lo, hi = (float(vals.min()), float(vals.max())) if vals.size else (0.0, 1.0)
+    if hi <= lo:
+        lo, hi = lo - 0.5 * max(abs(lo), 1e-12), hi + 0.5 * max(abs(hi), 1e-12)
+    pngs = []
+    for fn, snap in snaps:
+        png = png_name(fn, field)
+        draw(snap, field, (lo, hi), png)
+        pngs.append(png)
+    return pngs
