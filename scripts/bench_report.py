@@ -22,7 +22,7 @@ def main(path):
             by[r["tag"]][r["nx"]] = r
     rounds = sorted({t.split()[-1] for t in by if t.startswith("alone")})
     print("| N_x | particles | ranks x threads | ms/step (CPU ms per rank) | particle-steps/s | steps per list build "
-          "| outside numba | density ns/pair (ref.) | forces ns/pair (ref.) | peak RSS B/particle (added by the run) |")
+          "| outside the phases | density ns/pair (ref.) | forces ns/pair (ref.) | peak RSS B/particle (added by the run) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for tag in ("1 rank", "1 rank, 2 threads", "2 ranks"):
         for nx, r in sorted(by.get(tag, {}).items()):
@@ -31,7 +31,7 @@ def main(path):
             cpu = r["cpu_s_per_step"] * 1e3 / r["ranks"]
             print(f"| {nx} | {r['particles']} | {r['ranks']} x {r.get('threads', 1)} | {r['step_s'] * 1e3:.2f} ({cpu:.2f}) | "
                   f"{r['particle_steps_per_s']:.3g} | {r.get('steps_per_rebuild', float('nan')):.1f} | "
-                  f"{100 * r['outside_numba_share']:.1f}% | "
+                  f"{100 * r['outside_phases_share']:.1f}% | "
                   f"{r['ns_per_pair_density']:.1f} ({r['ns_per_pair_reference_density']:.1f}) | "
                   f"{r['ns_per_pair_forces']:.1f} ({r['ns_per_pair_reference_forces']:.1f}) | "
                   f"{r['rss_bytes_per_particle']:.0f}{added} |")

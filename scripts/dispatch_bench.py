@@ -10,8 +10,9 @@ dispatcher and through the compiled version (:func:`parsph.sph.rates.compiled`,
 as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
 calls each, in process CPU time. Then the time of whole steps of the
 Couette case at N_x = 10 (160 particles, fixed dt = 1e-5 s, after 300
-steps), where the calls weigh most: minimum and median over ``--rounds``
-(at most 5) rounds of ``--steps`` steps.
+steps), where the fixed cost of a step weighs most, in compiled blocks and on
+the Python path: minimum and median over ``--rounds`` (at most 5) rounds of
+``--steps`` steps.
 """
 import argparse
 import os
@@ -23,7 +24,7 @@ import numpy as np
 from mpi4py import MPI
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench import make_config, step_dt  # noqa: E402
+from bench import make_config  # noqa: E402
 
 from parsph.sph import equations, neighbours, pass_data, rates  # noqa: E402
 from parsph.simulation.solver import Simulation  # noqa: E402
@@ -32,7 +33,7 @@ from parsph.simulation.solver import Simulation  # noqa: E402
 def empty_calls(sim):
     """name -> (function, arguments) of every pass, on an empty input."""
     R, ps = sim.rates, sim.ps
-    gather = R._gather_arrays()
+    gather = R.gather_arrays()
     lst = R.list._replace(n=0, npairs=0)
     parts = pass_data.particle_arrays(ps)._replace(n_own=0)
     c, sw = R.consts, R.switches
@@ -59,18 +60,16 @@ def per_call(fn, args, calls, rounds):
     return float(np.median(times))
 
 
-def per_step(steps, rounds):
-    """(minimum, median) CPU microseconds per step of the Couette case at N_x = 10."""
-    sim = Simulation(make_config(10, ["numerics.dt=1e-5"]), MPI.COMM_SELF)
-    for _ in range(300):
-        sim.compute_rates()
-        sim.advance(step_dt(sim))
+def per_step(steps, rounds, native):
+    """(minimum, median) CPU microseconds per step of the Couette case at N_x = 10 (160 particles,
+    dt = 1e-5 s), stepped as parsph run steps (Simulation.take_steps): ``native`` the compiled blocks,
+    else the Python path with mpi4py messages."""
+    sim = Simulation(make_config(10, ["numerics.dt=1e-5"]), MPI.COMM_SELF, native=None if native else False)
+    sim.take_steps(300)
     times = []
     for _ in range(rounds):
         t0 = time.process_time()
-        for _ in range(steps):
-            sim.compute_rates()
-            sim.advance(step_dt(sim))
+        sim.take_steps(steps)
         times.append((time.process_time() - t0) / steps * 1e6)
     return min(times), float(np.median(times))
 
@@ -89,8 +88,9 @@ def main():
         direct = per_call(fn, args, a.calls, a.rounds)
         version = per_call(rates.compiled(fn, *args), args, a.calls, a.rounds)  # after the dispatcher ran
         print(f"{name:18s} {direct:10.2f} {version:10.2f}", flush=True)
-    lo, mid = per_step(a.steps, min(a.rounds, 5))
-    print(f"a step at N_x = 10: {lo:.1f} us (minimum), {mid:.1f} us (median) CPU", flush=True)
+    for native, route in ((True, "compiled blocks"), (False, "Python path, mpi4py")):
+        lo, mid = per_step(a.steps, min(a.rounds, 5), native)
+        print(f"a step at N_x = 10 ({route}): {lo:.1f} us (minimum), {mid:.1f} us (median) CPU", flush=True)
     return 0
 
 
