@@ -40,8 +40,8 @@ EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR = range(8
 CODES = ("event", "rebuild", "rebuild at the midpoint", "bad state", "bad state at the midpoint", "stop",
          "new limit", "MPI error")
 # ctl (float64): the block's clock and its inputs from Python
-T, DT, T_TARGET, LIN_THETA, LIN_DT, STOP_IN, FORCE_IN, STOP_OUT, LAND = range(9)
-N_CTL = 9
+T, DT, T_TARGET, LIN_THETA, LIN_DT, STOP_IN, FORCE_IN, STOP_OUT, LAND, EVAL_FIRST = range(10)
+N_CTL = 10
 # ictl (int64)
 STEP, STOP_STEP, STEPS_DONE = range(3)
 N_ICTL = 3
@@ -157,7 +157,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
 
     ``ctl``, ``ictl`` hold the clock (t, dt, step) and the inputs (target
     time, the linear limit's bucket, stop and forced-rebuild flags, the step
-    to stop at); ``timers`` gets the phases' seconds; ``scratch`` (12
+    to stop at, whether to evaluate the rates of the state first); ``timers`` gets the phases' seconds; ``scratch`` (12
     float64) the all-reduces' buffers.
     """
     flags, flags_all = scratch[0:3], scratch[3:6]
@@ -166,6 +166,10 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     n_own = parts.n_own
     stopped = False
     ictl[STEPS_DONE] = 0
+    if ctl[EVAL_FIRST] != 0.0:  # the rates of the state as it is (a list was just built)
+        ctl[EVAL_FIRST] = 0.0
+        if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+            return MPI_ERROR
     while ictl[STEP] < ictl[STOP_STEP]:
         # -- the step's dt
         land = False

@@ -122,15 +122,27 @@ class CompiledSteps:
             self._block_steps = max(1, min(100_000, int(BLOCK_SECONDS / per_step)))
 
     def _finish_step(self, code):
-        """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates;
-        at the midpoint, the second half and the step's last sync too."""
+        """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates
+        (a compiled evaluation of the new list); at the midpoint, the second half and the step's last
+        sync too."""
         self._act(self._scratch[3:6].copy())
-        self.rates(self.ps, self.ring, self.timers, self.clock)
+        self._evaluate_compiled()
         if code in (block.REBUILD_MID, block.BAD_MID):
             self._count_step(self.dt, self._correct(self.dt))
             if self._ctl[block.LAND]:
                 self.t = float(self._ctl[block.T_TARGET])
             self.compute_rates()
+
+    def _evaluate_compiled(self):
+        """Eq. (3), the ghosts' rho, Eq. (5) of the current state, in the compiled block (no step)."""
+        ctl, ictl = self._ctl, self._ictl
+        ctl[block.EVAL_FIRST] = 1.0
+        ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, self.t
+        ctl[block.STOP_IN] = ctl[block.FORCE_IN] = ctl[block.STOP_OUT] = 0.0
+        ictl[block.STEP] = ictl[block.STOP_STEP] = self.step
+        if self._block()(*self._block_args) == block.MPI_ERROR:
+            raise RuntimeError("an MPI call of the compiled step failed")
+        self._add_block_timers()
 
     def _new_limit(self):
         """The linear limit of the bucket the agreed largest theta is in (the auto rule, Python's side)."""
