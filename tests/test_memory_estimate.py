@@ -90,16 +90,11 @@ needs_proc = pytest.mark.skipif(not os.path.exists("/proc/self/clear_refs"), rea
 
 
 @needs_proc
-def test_estimate_bounds_the_measured_memory_one_thread():
-    for name, (est, peak, slope) in measure(1).items():
-        assert peak <= est and slope <= est, f"{name}: estimate {est:.0f} B, measured {peak:.0f} B peak, " \
-                                             f"{slope:.0f} B slope per particle"
-        assert est <= 2.5 * slope, f"{name}: estimate {est:.0f} B is more than 2.5x the measured {slope:.0f} B"
-
-
-@needs_proc
-def test_estimate_bounds_the_measured_memory_two_threads():
-    for name, (est, peak, slope) in measure(2).items():
+@pytest.mark.parametrize("threads", [1, 2])
+def test_estimate_bounds_the_measured_memory(threads):
+    """The estimate (threads included: the threaded passes' per-pair arrays) bounds the measured peak and
+    slope per particle, and is at most 2.5x the slope."""
+    for name, (est, peak, slope) in measure(threads).items():
         assert peak <= est and slope <= est, f"{name}: estimate {est:.0f} B, measured {peak:.0f} B peak, " \
                                              f"{slope:.0f} B slope per particle"
         assert est <= 2.5 * slope, f"{name}: estimate {est:.0f} B is more than 2.5x the measured {slope:.0f} B"

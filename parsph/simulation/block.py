@@ -151,6 +151,25 @@ def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all):
 
 
 @njit(cache=True)
+def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl, flags, flags_all,
+                   bad, skin, timers, mid):
+    """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
+    the block's code (``mid``: at the midpoint integrator's middle evaluation). A stop agreed here is
+    kept in ctl[STOP_OUT]."""
+    if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers):
+        return MPI_ERROR
+    if flags_all[0] != 0.0:
+        return BAD_MID if mid else BAD
+    if flags_all[1] != 0.0:
+        ctl[STOP_OUT] = flags_all[1]
+    if flags_all[2] != 0.0:
+        return REBUILD_MID if mid else REBUILD
+    if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+        return MPI_ERROR
+    return -1
+
+
+@njit(cache=True)
 def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, modes, ctl, ictl, timers,
               scratch):
     """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
@@ -164,7 +183,6 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     maxima, maxima_all = scratch[6:9], scratch[9:12]
     pos, vel, acc, kind = parts.pos, parts.vel, parts.acc, parts.kind
     n_own = parts.n_own
-    stopped = False
     ictl[STEPS_DONE] = 0
     if ctl[EVAL_FIRST] != 0.0:  # the rates of the state as it is (a list was just built)
         ctl[EVAL_FIRST] = 0.0
@@ -199,17 +217,10 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                 bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                           motion.jump, rule.h)
             timers[INTEGRATE] += wtime() - t0
-            if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, rule.skin, timers):
-                return MPI_ERROR
-            if flags_all[0] != 0.0:
-                return BAD_MID
-            if flags_all[1] != 0.0:
-                ctl[STOP_OUT] = flags_all[1]
-                stopped = True
-            if flags_all[2] != 0.0:
-                return REBUILD_MID
-            if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
-                return MPI_ERROR
+            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
+                                  flags, flags_all, bad, rule.skin, timers, True)
+            if code >= 0:
+                return code
             t0 = wtime()
             if len(modes.threaded):
                 bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
@@ -229,18 +240,11 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             ctl[T] = ictl[STEP] * rule.dt
         timers[INTEGRATE] += wtime() - t0
         # -- sync, and the rates of the new state
-        if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, rule.skin, timers):
-            return MPI_ERROR
-        if flags_all[0] != 0.0:
-            return BAD
-        if flags_all[1] != 0.0:
-            ctl[STOP_OUT] = flags_all[1]
-            stopped = True
-        if flags_all[2] != 0.0:
-            return REBUILD
-        if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
-            return MPI_ERROR
-        if stopped:
+        code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
+                              flags, flags_all, bad, rule.skin, timers, False)
+        if code >= 0:
+            return code
+        if ctl[STOP_OUT] != 0.0:  # agreed at this step's syncs: the step is done, its rates computed
             return STOP
         if land:
             return EVENT
