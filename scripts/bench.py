@@ -148,21 +148,21 @@ def reference_density(order, pstart, pj, n, x, y, m, h, norm, rho, fp):
 
 def reference(sim, repeat=20):
     """ns per unique pair of the two reference loops on the solver's current pair list."""
-    R, ps, cfg = sim.rates, sim.ps, sim.cfg
+    R, N, ps, cfg = sim.rates, sim.neighbours, sim.ps, sim.cfg
     n = ps.n
-    pairs = R.npairs
+    pairs = N.npairs
     x, y = ps.pos[:n, 0].copy(), ps.pos[:n, 1].copy()
     vx, vy = ps.vel[:n, 0].copy(), ps.vel[:n, 1].copy()
     th = ps.theta[:n].copy()
-    fargs = (R.order, R.pstart, R.pj, n, x, y, vx, vy, ps.mass[:n].copy(), th, 1.0 / th,
+    fargs = (N.order, N.pstart, N.pj, n, x, y, vx, vy, ps.mass[:n].copy(), th, 1.0 / th,
              R.fields[:n, 6].copy(), R.fields[:n, 4].copy(), R.fp.copy(), -1.0 / cfg.rho_s ** 2, cfg.k,
              np.zeros(n), np.zeros(n))
     result = {"forces": timed(reference_forces, fargs, repeat) / pairs * 1e9}
     rows = np.ascontiguousarray(np.column_stack([x, y, vx, vy, th, 1.0 / th, R.fields[:n, 6], R.fields[:n, 4]]))
-    rargs = (R.order, R.pstart, R.pj, n, rows, ps.mass[:n].copy(), R.fp.copy(), -1.0 / cfg.rho_s ** 2, cfg.k,
+    rargs = (N.order, N.pstart, N.pj, n, rows, ps.mass[:n].copy(), R.fp.copy(), -1.0 / cfg.rho_s ** 2, cfg.k,
              np.zeros(n), np.zeros(n))
     result["forces_rows"] = timed(reference_forces_rows, rargs, repeat) / pairs * 1e9
-    dargs = (R.order, R.pstart, R.pj, n, x, y, ps.mass[:n].copy(), cfg.h, sim.kernel.norm(cfg.h, cfg.dim),
+    dargs = (N.order, N.pstart, N.pj, n, x, y, ps.mass[:n].copy(), cfg.h, sim.kernel.norm(cfg.h, cfg.dim),
              np.zeros(n), np.zeros(len(R.fp)))
     result["density"] = timed(reference_density, dargs, repeat) / pairs * 1e9
     return result
@@ -219,7 +219,7 @@ def bench(comm, nx, steps=None, extra=(), budget=5.0, warmup=200):
     phases_min = {k: comm.allreduce(sim.timers.get(k, 0.0), op=MPI.MIN) / steps for k in PHASES}
     inside = sum(sim.timers.get(k, 0.0) for k in PHASES)
     outside = comm.allreduce(max(wall - inside, 0.0) / wall, op=MPI.MAX)
-    pairs = comm.allreduce(sim.rates.npairs, op=MPI.SUM)
+    pairs = comm.allreduce(sim.neighbours.npairs, op=MPI.SUM)
     rss = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, op=MPI.SUM)
     ref = reference(sim)
     step = wall / steps

@@ -22,7 +22,7 @@ import numpy as np
 from mpi4py import MPI
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench import make_config, step_dt  # noqa: E402
+from bench import make_config  # noqa: E402
 
 from parsph.simulation.solver import Simulation  # noqa: E402
 from parsph.sph import equations, pass_data, reference_passes  # noqa: E402
@@ -49,12 +49,9 @@ def threading_layer():
 def state(nx, warmup):
     """The benchmark case after ``warmup`` steps, its rates evaluated: (sim, pass arguments, gather)."""
     sim = Simulation(make_config(nx), MPI.COMM_SELF)
-    for _ in range(warmup):
-        sim.compute_rates()
-        sim.advance(step_dt(sim))
-    sim.compute_rates()
+    sim.take_steps(warmup)
     R = sim.rates
-    return sim, (R.list, pass_data.particle_arrays(sim.ps), R.consts, R.switches), R._gather_arrays()
+    return sim, (R.list, pass_data.particle_arrays(sim.ps), R.consts, R.switches), R.gather_arrays()
 
 
 def outputs(lst, parts):

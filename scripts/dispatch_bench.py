@@ -6,7 +6,7 @@ With nothing to loop over, a call costs what numba's dispatcher does before
 and after the loop: typing the arguments, finding the compiled version,
 boxing the result. Each pass gets the arguments :class:`parsph.sph.rates.Rates`
 gives it, from a small Couette case, with n = 0; it is called through its
-dispatcher and through the compiled version (:func:`parsph.sph.rates.compiled`,
+dispatcher and through the compiled version (:func:`parsph.sph.dispatch.compiled`,
 as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
 calls each, in process CPU time. Then the time of whole steps of the
 Couette case at N_x = 10 (160 particles, fixed dt = 1e-5 s, after 300
@@ -26,25 +26,25 @@ from mpi4py import MPI
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench import make_config  # noqa: E402
 
-from parsph.sph import equations, neighbours, pass_data, rates  # noqa: E402
+from parsph.sph import equations, neighbours, pass_data, dispatch  # noqa: E402
 from parsph.simulation.solver import Simulation  # noqa: E402
 
 
 def empty_calls(sim):
     """name -> (function, arguments) of every pass, on an empty input."""
-    R, ps = sim.rates, sim.ps
+    R, N, ps = sim.rates, sim.neighbours, sim.ps
     gather = R.gather_arrays()
     lst = R.list._replace(n=0, npairs=0)
     parts = pass_data.particle_arrays(ps)._replace(n_own=0)
     c, sw = R.consts, R.switches
-    empty_box = R.local._replace(size=np.zeros(3, np.int64), centre_hi=R.local.centre_lo - 1)
+    empty_box = N.local._replace(size=np.zeros(3, np.int64), centre_hi=N.local.centre_lo - 1)
     return {
         "density_serial": (equations.density_serial, (lst, parts, c, sw)),
         "density_threaded": (equations.density_threaded, (lst, parts, c, sw, gather)),
         "particle_factors": (equations.particle_factors, (lst, parts, c, sw, 0, 0)),
         "momentum_serial": (equations.momentum_serial, (lst, parts, c, sw)),
         "momentum_threaded": (equations.momentum_threaded, (lst, parts, c, sw, gather)),
-        "block_spread": (neighbours.block_spread, (ps.disp, R.cells._replace(n=0), empty_box, R.box, R.work)),
+        "block_spread": (neighbours.block_spread, (ps.disp, N.cells._replace(n=0), empty_box, N.box, N.work)),
     }
 
 
@@ -86,7 +86,7 @@ def main():
     print(f"{'pass':18s} {'dispatcher':>10s} {'compiled':>10s}  [us per call, CPU, median]")
     for name, (fn, args) in empty_calls(sim).items():
         direct = per_call(fn, args, a.calls, a.rounds)
-        version = per_call(rates.compiled(fn, *args), args, a.calls, a.rounds)  # after the dispatcher ran
+        version = per_call(dispatch.compiled(fn, *args), args, a.calls, a.rounds)  # after the dispatcher ran
         print(f"{name:18s} {direct:10.2f} {version:10.2f}", flush=True)
     for native, route in ((True, "compiled blocks"), (False, "Python path, mpi4py")):
         lo, mid = per_step(a.steps, min(a.rounds, 5), native)

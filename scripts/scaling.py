@@ -139,7 +139,7 @@ def worker(a):
         waits = sum(st["waiting"].values())
         mine = {
             "rank": world.rank, "own": ps.n_own, "ghosts_below": ring.n_below, "ghosts_above": ring.n_above,
-            "images": ring.n_images, "local": ps.n, "pairs": sim.rates.npairs,
+            "images": ring.n_images, "local": ps.n, "pairs": sim.neighbours.npairs,
             "cpu_s_per_step": sum(run.cpus) / steps, "wall_block_s": run.walls, "rebuilds_per_block": run.rebuilds,
             # waits in the Python-side messages (list builds; every step on the mpi4py path); the compiled
             # step's waits are inside its sync and halo phases

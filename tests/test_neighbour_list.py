@@ -55,8 +55,8 @@ def brute_pairs(sim):
 
 def listed_pairs(sim):
     """{(gid_i, gid_j)}: the list's pairs now within 2h, from the side of each owned fluid member."""
-    ps, R = sim.ps, sim.rates
-    pi, pj = R.pi[:R.npairs], R.pj[:R.npairs]
+    ps, N = sim.ps, sim.neighbours
+    pi, pj = N.pi[:N.npairs], N.pj[:N.npairs]
     d = ps.pos[pi] - ps.pos[pj]
     near = (d * d).sum(axis=1) < (2 * sim.cfg.h) ** 2
     pi, pj = pi[near], pj[near]
@@ -142,14 +142,14 @@ def test_runaway_particle_does_not_grow_the_grid():
     cfg = config.load(ROOT / "run" / "couette_paper.toml", ["domain.Ly=0.004", "output.times=[]"])
     sim = Simulation(cfg, MPI.COMM_SELF)
     sim.compute_rates()
-    cells = int(np.prod(sim.rates.size))
+    cells = int(np.prod(sim.neighbours.size))
     ps = sim.ps
     k = int(np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[0])
     ps.pos[k, 0] = 100.0
     sim.force_rebuild = True
     sim.compute_rates()
-    assert int(np.prod(sim.rates.size)) == cells
-    assert len(sim.rates.box) <= cells
+    assert int(np.prod(sim.neighbours.size)) == cells
+    assert len(sim.neighbours.box) <= cells
 
 
 # ---- the validity test (neighbours.block_spread) against brute force --------------------------------------

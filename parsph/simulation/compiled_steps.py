@@ -11,7 +11,7 @@ import numpy as np
 from parsph.parallel import native_mpi
 from parsph.physics import limits
 from parsph.sph import pass_data
-from parsph.sph.rates import compiled, kinds
+from parsph.sph.dispatch import compiled, kinds
 from . import block
 from .block import Modes, Motion, Rule
 
@@ -47,14 +47,14 @@ class CompiledSteps:
     def _block(self):
         """The compiled block for this build's argument types (compiled or loaded from the cache once)."""
         if self._block_args is None:
-            ps, R, cfg = self.ps, self.rates, self.cfg
+            ps, R, N, cfg = self.ps, self.rates, self.neighbours, self.cfg
             threaded = numba.get_num_threads() > 1
             mid = cfg.integrator == "midpoint"
             motion = Motion(ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self._no_state,
                             ps.vel0 if mid else self._no_state)
             modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
-            self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, R.cells,
-                                R.local, R.box, R.work, R.consts, R.switches,
+            self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
+                                N.local, N.box, N.work, R.consts, R.switches,
                                 R.gather_arrays() if threaded else self._no_gather, self._rule, modes, self._ctl,
                                 self._ictl, self._timers_block, self._scratch)
             self._block_fn = None

@@ -40,6 +40,8 @@ from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, state_maxima
 from parsph.sph.profiles import bin_centres, bin_sums, errors
 from parsph.sph.rates import Rates
+from parsph.sph.neighbour_list import NeighbourList
+from parsph.physics.kernels import kernel_w_f
 from parsph.sph import pass_data
 from .compiled_steps import CompiledSteps
 
@@ -80,15 +82,12 @@ class Simulation(CompiledSteps):
         if self.scene.terms.body_force:
             self.g[:cfg.dim] = cfg.g
         self.period_x = 0.0 if walls else cfg.L
-        sw = pass_data.switch
-        switches = (sw(cfg.pressure), sw(cfg.viscosity), sw(cfg.get("numerics.viscosity_form") == "symmetric"),
-                    sw(walls), sw(cfg.get("numerics.pressure_form") == "consistent"))
         self.step = 0 if state is None else int(state["attrs"]["step"])
         self.t = 0.0 if state is None else float(state["attrs"]["time"])
         self.dt = cfg.dt if state is None else float(state["attrs"]["dt"])
         self.timers = defaultdict(float)
-        self.rates = Rates(self.kernel, cfg.h, cfg.dim, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L, cfg.beta_max,
-                           self.g, switches, self.grid, self.skin)
+        self.neighbours = NeighbourList(self.grid)
+        self.rates = Rates(*self._pass_groups())
         self.collect = Collectives(comm)
         self.n_total = self.collect.total(ps.n_own)
         self.nbins = cfg.Nx
@@ -102,6 +101,19 @@ class Simulation(CompiledSteps):
         self.stop = 0
         self.rebuilds = 0
         self._init_blocks(native)
+
+    def _pass_groups(self):
+        """The run's numbers and terms as the passes take them (pass_data.Constants, pass_data.Switches)."""
+        cfg, kernel, sw = self.cfg, self.kernel, pass_data.switch
+        inv_h = 1.0 / cfg.h
+        norm = kernel.norm(cfg.h, cfg.dim)
+        w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
+        consts = pass_data.Constants(kernel.kid, inv_h, norm, w0, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L,
+                                     cfg.beta_max, np.asarray(self.g, float))
+        switches = pass_data.Switches(sw(cfg.pressure), sw(cfg.viscosity),
+                                      sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(self.scene.walls),
+                                      sw(cfg.get("numerics.pressure_form") == "consistent"), sw(cfg.dim == 3))
+        return consts, switches
 
     def _particles(self, state):
         """This slab's particles: from the scene, from a snapshot (``state["path"]``) or from arrays."""
@@ -146,7 +158,7 @@ class Simulation(CompiledSteps):
         n = ps.n_own
         np.subtract(ps.pos[:n], ps.ref[:n], out=ps.disp[:n])  # positions may have changed (a step, a caller)
         self.ring.forward(ps)
-        spread = self.rates.spread(ps)
+        spread = self.neighbours.spread(ps.disp)
         f = self._flags
         f[0] = self._bad
         f[1] = self._stop_local
@@ -189,13 +201,14 @@ class Simulation(CompiledSteps):
         cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
         local = ring.local_box(ps.dim)
-        order = self.rates.sort_owned(coords, ps.gid, n, local)
+        order = self.neighbours.sort_owned(coords, ps.gid, n, local)
         ps.reorder_owned(order)
         coords[:n] = coords[order]
         coords = ring.exchange_ghosts(ps, coords)
         coords = ring.add_images(ps, coords)
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
-        self.rates.build(ps, coords, local)
+        self.neighbours.build(ps, coords, local)
+        self.rates.attach(self.neighbours)
         self._block_args = None  # the compiled block's arguments are this build's arrays
         self._built = True
         self.rebuilds += 1

@@ -1,0 +1,90 @@
+"""The neighbour list of one rank as an object: the particles sorted into cells, the unique pairs within
+2h + skin of their reference positions, and the test of whether it still holds (the numba loops and
+the proof are in :mod:`parsph.sph.neighbours`). In LAMMPS's terms, the Neighbor; the passes over it
+are :class:`parsph.sph.rates.Rates`.
+"""
+import numpy as np
+
+from . import neighbours
+from .dispatch import Calls
+from .particles import FLUID
+
+
+class NeighbourList:
+    """Built at each list build (:meth:`build`); :meth:`spread` tests it every step."""
+
+    def __init__(self, grid):
+        self.grid = grid
+        self.npairs = 0
+        self.n = 0
+        self.pi = np.zeros(0, np.int32)
+        self.pj = np.zeros(0, np.int32)
+        self._cap = 0
+        self._entries = None
+        self._calls = Calls({"block_spread": neighbours.block_spread})
+
+    @staticmethod
+    def sort_owned(coords, gid, n, local):
+        """The order of particles 0..n-1 by cell and gid (a counting sort on the local cell box)."""
+        ncells = int(np.prod(local.size))
+        cell = np.zeros(n, np.int64)
+        order = np.zeros(n, np.int64)
+        start = np.zeros(ncells + 1, np.int64)
+        neighbours.local_cells(coords, n, local, cell)
+        neighbours.sort_by_cell(cell, gid, n, ncells, order, start)
+        return order
+
+    def build(self, ps, coords, local):
+        """Sort the n local particles into cells and list their unique pairs within 2h + skin of their
+        reference positions ``ps.ref`` (the positions at this build).
+
+        ``coords``: integer cell coordinates per particle; ``local``: the
+        rank's :class:`parsph.sph.neighbours.CellBox` (SlabRing.local_box).
+        """
+        n = ps.n
+        self.local = local
+        self.size = local.size
+        ncells = int(np.prod(local.size))
+        if self._cap < n:
+            self._cap = max(n, int(1.3 * self._cap))
+            self.cell = np.zeros(self._cap, np.int64)
+            self.order = np.zeros(self._cap, np.int64)
+            self.need = np.zeros(self._cap, np.bool_)
+            self.pstart = np.zeros(self._cap + 1, np.int64)
+        if not hasattr(self, "start") or len(self.start) < ncells + 1:
+            self.start = np.zeros(ncells + 1, np.int64)
+            self.box = np.zeros((ncells, 6))
+            self.work = np.zeros((ncells, 6))
+        neighbours.local_cells(coords, n, local, self.cell)
+        neighbours.sort_by_cell(self.cell, ps.gid, n, ncells, self.order, self.start)
+        self.cells = neighbours.CellOrder(self.cell, self.order, self.start, n)
+        self.need[:n] = False
+        self.need[:ps.n_own] = ps.kind[:ps.n_own] == FLUID
+        if len(self.pi) < 1:  # build_pairs needs room for one store beyond its pairs
+            self.pi = np.zeros(16 * n + 64, np.int32)
+            self.pj = np.zeros(16 * n + 64, np.int32)
+        while True:
+            count = neighbours.build_pairs(ps.ref, self.need, self.cells, local, self.grid.cutoff, self.pstart,
+                                           self.pi, self.pj)
+            if count >= 0:
+                break
+            cap = int(1.2 * -count) + 64
+            self.pi = np.zeros(cap, np.int32)
+            self.pj = np.zeros(cap, np.int32)
+        self.npairs = count
+        self.n = n
+        self._entries = None
+        self._calls.forget()
+
+    def spread(self, disp):
+        """The largest displacement spread over the blocks of this rank (the list holds while below the skin)."""
+        return self._calls("block_spread", disp, self.cells, self.local, self.box, self.work)
+
+    def entries(self):
+        """(offset, entry): each particle's pairs in pair order, for the threaded passes (once per build)."""
+        if self._entries is None:
+            offset = np.zeros(self.n + 1, np.int64)
+            entry = np.zeros(2 * self.npairs + 1, np.int64)
+            neighbours.build_entries(self.pi, self.pj, self.npairs, self.need, self.n, offset, entry)
+            self._entries = (offset, entry)
+        return self._entries
