@@ -6,7 +6,8 @@ periodic: rank P-1's upper neighbour is rank 0, and copies that cross y = Ly
 are shifted by -Ly (going up) or +Ly (going down) on arrival. With one rank
 the rank is its own neighbour and the same code runs.
 
-At a rebuild (:meth:`SlabRing.rebuild`): positions are wrapped into the box,
+At a rebuild (:meth:`SlabRing.wrap`, :meth:`~SlabRing.migrate`, :meth:`~SlabRing.exchange_ghosts`,
+:meth:`~SlabRing.add_images`): positions are wrapped into the box,
 particles migrate to the rank that owns their y (several slabs away if they
 must), and each rank receives as ghosts the whole rows of cells of the
 neighbour list's grid that it needs (the rows within M cells of its own:
@@ -18,9 +19,13 @@ Between rebuilds particles stay where they are, even outside their slab:
 and displacements, and :meth:`SlabRing.refresh` one scalar (rho), each in
 one round of messages of sizes known in advance.
 
-Messages are float64 rows sent with mpi4py's buffer methods (no pickling),
-packed and unpacked by the loops of :mod:`parsph.parallel.halo_rows`; the slab
-arithmetic (edges, rows, whether a rank count fits) is :mod:`parsph.parallel.slabs`.
+Messages are float64 rows (no pickling), packed and unpacked by the loops of
+:mod:`parsph.parallel.halo_rows`, :mod:`parsph.parallel.build_loops` and
+:mod:`parsph.sph.particles`; they are sent from compiled code
+(:mod:`parsph.parallel.native_mpi`) where it can call MPI, else with
+mpi4py's buffer methods. A build's rounds of unknown size send their row
+counts first, in a round of their own. The slab arithmetic (edges, rows,
+whether a rank count fits) is :mod:`parsph.parallel.slabs`.
 This module knows nothing of the equations, only of particle arrays and the
 cell grid.
 """
@@ -31,9 +36,11 @@ import numpy as np
 from mpi4py import MPI
 
 from . import native_mpi
+from .build_loops import ghost_places, sort_strays, wrap_fields
 from .halo_rows import copy_images, pack_forward, pack_ghosts, pack_scalar, unpack_forward, unpack_ghosts, unpack_scalar
 from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
 from parsph.sph.neighbours import CellBox
+from parsph.sph.particles import pack_rows
 from parsph.errors import DecompositionError
 from .slabs import cell_rows, fits, max_ranks, min_length, slab_bounds
 
@@ -45,9 +52,11 @@ GHOST_FIELDS = ("gid", "kind", "mass", "pos", "vel", "rho", "ref")
 class SlabRing:
     """The slab of this rank, its two neighbours, its ghosts and images, and the exchange buffers."""
 
-    def __init__(self, comm, Ly, grid, clock=time.perf_counter):
-        """``clock``: the seconds of :attr:`stats` (e.g. time.process_time for CPU time)."""
+    def __init__(self, comm, Ly, grid, clock=time.perf_counter, native=True):
+        """``clock``: the seconds of :attr:`stats` (e.g. time.process_time for CPU time); ``native``: False
+        sends every message through mpi4py even where compiled code can call MPI."""
         self.comm = comm
+        self.native = native
         self.clock = clock
         # what the Python-side messages cost, by method: seconds in the method, seconds waiting in MPI,
         # (sends, bytes) and all-reduces; the compiled step's messages are counted by their plan's sizes
@@ -84,9 +93,10 @@ class SlabRing:
         self.n_images = 0
         self._bufs = {}
         self._handles = None  # native_mpi.handles of comm, made with the first plan
-        self._status = MPI.Status()
         self._flag = np.zeros(1, np.int64)
         self._flag_all = np.zeros(1, np.int64)
+        self._places = np.zeros(0, np.int64)
+        self._periodic = self._period = None
 
     # -- buffers --------------------------------------------------------------------
     def _buf(self, key, rows, width):
@@ -98,29 +108,52 @@ class SlabRing:
             self._bufs[key] = buf
         return buf
 
-    def _send_receive(self, up, down, tags, method):
-        """Send rows ``up`` to the right neighbour and ``down`` to the left; receive rows of unknown number.
+    def _native(self):
+        """The communicator's handles and 4 requests for :mod:`native_mpi`, or None where it is unavailable."""
+        if not (self.native and native_mpi.available()[0]):
+            return None
+        if self._handles is None:
+            self._handles = native_mpi.handles(self.comm)
+            self._reqs = native_mpi.requests(4)
+        return self._handles
 
-        The counts travel as message sizes (MPI_Probe, then a receive of that
-        size). Returns (rows from the left, rows from the right).
-        """
-        c = self.comm
-        width = up.shape[1]
+    def _rounds(self, up, n_up, down, n_down, below, n_below, above, n_above, tags, method):
+        """One round of known sizes: n_up rows of ``up`` to the right, n_down of ``down`` to the left,
+        n_below rows from the left into ``below``, n_above from the right into ``above``; from compiled
+        code where it can call MPI, else through mpi4py."""
         tag_up, tag_down = tags
-        sends = [c.Isend([up, MPI.DOUBLE], dest=self.right, tag=tag_up),
-                 c.Isend([down, MPI.DOUBLE], dest=self.left, tag=tag_down)]
-        self._count(method, up, down)
-        got = []
         t0 = self.clock()
-        for source, tag in ((self.left, tag_up), (self.right, tag_down)):
-            c.Probe(source=source, tag=tag, status=self._status)
-            rows = self._status.Get_count(MPI.DOUBLE) // max(width, 1)
-            buf = self._buf(("probe", tag), rows, width)[:rows]
-            c.Recv([buf, MPI.DOUBLE], source=source, tag=tag)
-            got.append(buf.copy())
-        MPI.Request.Waitall(sends)
+        h = self._native()
+        if h is not None:
+            err = native_mpi.exchange_rows(h, self.left, self.right, tag_up, tag_down, up, n_up, down, n_down,
+                                           below, n_below, above, n_above, *self._reqs)
+            if err:
+                raise RuntimeError(f"an MPI call of the slab ring's {method} failed (error {err})")
+        else:
+            c = self.comm
+            MPI.Request.Waitall([c.Irecv([below[:n_below], MPI.DOUBLE], source=self.left, tag=tag_up),
+                                 c.Irecv([above[:n_above], MPI.DOUBLE], source=self.right, tag=tag_down),
+                                 c.Isend([up[:n_up], MPI.DOUBLE], dest=self.right, tag=tag_up),
+                                 c.Isend([down[:n_down], MPI.DOUBLE], dest=self.left, tag=tag_down)])
         self.stats["waiting"][method] += self.clock() - t0
-        return got[0], got[1]
+
+    def _send_receive(self, up, n_up, down, n_down, tags, method):
+        """Send the first n_up rows of ``up`` to the right neighbour and n_down of ``down`` to the left;
+        receive rows of a number each learns first from a header (one round of counts, then the rows).
+        Returns (rows from the left, rows from the right): views of this ring's buffers, valid until the
+        next call with the same ``method``."""
+        width = up.shape[1]
+        counts = self._buf(("counts", method), 4, 1)
+        counts[0, 0], counts[1, 0] = n_up, n_down
+        tag_up, tag_down = tags
+        self._rounds(counts[0:1], 1, counts[1:2], 1, counts[2:3], 1, counts[3:4], 1,
+                     (tag_up + 100, tag_down + 100), method)
+        nb, na = int(counts[2, 0]), int(counts[3, 0])
+        below = self._buf(("from left", method), nb, width)
+        above = self._buf(("from right", method), na, width)
+        self._rounds(up, n_up, down, n_down, below, nb, above, na, tags, method)
+        self._count(method, counts[0:1], counts[1:2], up[:n_up], down[:n_down])
+        return below[:nb], above[:na]
 
     def _count(self, method, *bufs):
         e = self.stats["sends"][method]
@@ -169,11 +202,8 @@ class SlabRing:
     def plan(self, dim):
         """The ghosts' messages of this build for the compiled sync (:mod:`parsph.parallel.native_halo`),
         on the same buffers as :meth:`forward` and :meth:`refresh`; None where native MPI is unavailable."""
-        if not native_mpi.available()[0]:
+        if self._native() is None:
             return None
-        if self._handles is None:
-            self._handles = native_mpi.handles(self.comm)
-            self._reqs = native_mpi.requests(4)
         nu, nd, nb, na = len(self.send_up), len(self.send_down), self.n_below, self.n_above
         w = 3 * dim
         f = [self._buf((side, "fwd"), k, w) for side, k in (("send up", nu), ("send down", nd),
@@ -185,38 +215,24 @@ class SlabRing:
                         self.img_shift, *f, *s, *self._reqs)
 
     # -- at a rebuild -------------------------------------------------------------------
-    def owner(self, y):
-        """The rank owning each y in [0, Ly)."""
-        return np.clip(np.searchsorted(self.bounds, y, side="right") - 1, 0, self.size - 1)
-
     def wrap(self, ps, position_fields):
         """Wrap the owned positions into the box along its periodic directions (the same shift for every
         field in ``position_fields``, e.g. the midpoint integrator's saved positions)."""
-        n = ps.n_own
-        for axis in range(ps.dim):
-            a = self.grid.axes[axis]
-            if not a.periodic:
-                continue
-            x = ps.pos[:n, axis]
-            shift = np.floor(x / a.period) * a.period
-            if not np.any(shift):
-                continue
-            for name in position_fields:
-                getattr(ps, name)[:n, axis] -= shift
-            # rounding can leave x == period after the shift
-            over = ps.pos[:n, axis] >= a.period
-            for name in position_fields:
-                getattr(ps, name)[:n, axis][over] -= a.period
+        if self._periodic is None:
+            axes = self.grid.axes
+            self._periodic = np.array([axes[k].periodic for k in range(ps.dim)], np.bool_)
+            self._period = np.array([axes[k].period if axes[k].periodic else 0.0 for k in range(ps.dim)])
+        wrap_fields(tuple(getattr(ps, name) for name in position_fields), ps.n_own, self._periodic,
+                    self._period)
 
     def migrate(self, ps, key="pos"):
         """Hand every owned particle whose y (of field ``key``) is outside the slab to its owner, through
-        the ring, as often as needed.
+        the ring, one slab a round, the shorter way round.
 
-        Each round moves the strays one slab toward their owner (the shorter
-        way round); rounds go on until no rank has any (one all-reduce each).
+        One all-reduce gives the most slabs any particle is from its owner,
+        and as many rounds follow; a round's sizes travel in a header.
         """
-        P = self.size
-        if P == 1:
+        if self.size == 1:
             return
         t_in = self.clock()
         try:
@@ -225,30 +241,37 @@ class SlabRing:
             self.stats["seconds"]["migrate"] += self.clock() - t_in
 
     def _migrate(self, ps, key):
-        P = self.size
+        hops = None
         while True:
             n = ps.n_own
-            owner = self.owner(getattr(ps, key)[:n, 1])
-            away = owner != self.rank
-            self._flag[0] = int(away.any())
-            t0 = self.clock()
-            self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
-            self.stats["waiting"]["migrate"] += self.clock() - t0
-            self.stats["allreduces"]["migrate"] += 1
-            if not self._flag_all[0]:
+            if len(self._places) < n:
+                self._places = np.zeros(int(1.3 * n) + 16, np.int64)
+            idx = self._places
+            stay, n_up, n_down, far = sort_strays(getattr(ps, key), n, self.bounds, self.rank, self.size, idx)
+            if hops is None:
+                self._flag[0] = far
+                t0 = self.clock()
+                self.comm.Allreduce(self._flag, self._flag_all, op=MPI.MAX)
+                self.stats["waiting"]["migrate"] += self.clock() - t0
+                self.stats["allreduces"]["migrate"] += 1
+                hops = int(self._flag_all[0])
+            if hops == 0:
                 return
-            ahead = (owner - self.rank) % P
-            up = away & (ahead <= P // 2)
-            down = away & ~up
-            from_left, from_right = self._send_receive(ps.rows(np.flatnonzero(up)), ps.rows(np.flatnonzero(down)),
-                                                       (TAG_MOVE_UP, TAG_MOVE_DOWN), "migrate")
-            ps.remove_owned(away)
-            n0 = ps.n_own
+            hops -= 1
+            groups = ps.groups()
+            width = ps.row_width()
+            up = self._buf(("move", "up"), n_up, width)
+            down = self._buf(("move", "down"), n_down, width)
+            pack_rows(idx[stay:], n_up, *groups, up)
+            pack_rows(idx[stay + n_up:], n_down, *groups, down)
+            from_left, from_right = self._send_receive(up, n_up, down, n_down, (TAG_MOVE_UP, TAG_MOVE_DOWN),
+                                                       "migrate")
+            ps.reorder_owned(idx[:stay])
             k = len(from_left) + len(from_right)
-            ps.ensure(n0 + k, keep=n0)
-            ps.put_rows(from_left, n0)
-            ps.put_rows(from_right, n0 + len(from_left))
-            ps.n_own = ps.n = n0 + k
+            ps.ensure(stay + k, keep=stay)
+            ps.put_rows(from_left, stay)
+            ps.put_rows(from_right, stay + len(from_left))
+            ps.n_own = ps.n = stay + k
 
     def exchange_ghosts(self, ps, coords):
         """Receive as ghosts the neighbours' particles in the cell rows this slab needs; returns the coords array.
@@ -261,21 +284,20 @@ class SlabRing:
         P, r, m, ny = self.size, self.rank, self.m, self.ny
         first, last = self._rows_of
         n = ps.n_own
-        cy = coords[:n, 1]
         # rows as the receiver numbers them: +ny for rank 0 sending down across y = 0, -ny for P-1 up
-        down_rows = cy + (ny if r == 0 else 0)
-        up_rows = cy - (ny if r == P - 1 else 0)
-        self.send_down = np.flatnonzero(down_rows <= last[self.left] + m).astype(np.int64)
-        self.send_up = np.flatnonzero(up_rows >= first[self.right] - m).astype(np.int64)
+        down, up = np.zeros(n, np.int64), np.zeros(n, np.int64)
+        nd, nu = ghost_places(coords, n, ny if r == 0 else 0, int(last[self.left]) + m,
+                              -ny if r == P - 1 else 0, int(first[self.right]) - m, down, up)
+        self.send_down, self.send_up = down[:nd], up[:nu]
         width = 7 + 3 * ps.dim
 
         def rows(idx, key):
-            out = self._buf(("ghost rows", key), len(idx), width)[:len(idx)]
+            out = self._buf(("ghost rows", key), len(idx), width)
             pack_ghosts(idx, ps.gid, ps.kind, ps.mass, ps.pos, ps.vel, ps.rho, ps.ref, coords, out)
             return out
 
-        below, above = self._send_receive(rows(self.send_up, "up"), rows(self.send_down, "down"), (TAG_UP, TAG_DOWN),
-                                          "exchange_ghosts")
+        below, above = self._send_receive(rows(self.send_up, "up"), nu, rows(self.send_down, "down"), nd,
+                                          (TAG_UP, TAG_DOWN), "exchange_ghosts")
         self.n_below, self.n_above = nb, na = len(below), len(above)
         ps.n = n
         ps.ensure(n + nb + na, keep=n)

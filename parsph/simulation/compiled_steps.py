@@ -27,6 +27,7 @@ class CompiledSteps:
         self.native, self.native_why = native_mpi.available()
         if native is False:
             self.native, self.native_why = False, "native=False"
+        self.ring.native = self.native  # the list build's messages take the same route
         self._ctl = np.zeros(block.N_CTL)
         self._ictl = np.zeros(block.N_ICTL, np.int64)
         self._scratch = np.zeros(12)

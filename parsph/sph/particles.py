@@ -74,21 +74,30 @@ class Particles:
         return p
 
     # ---- whole particles as float64 rows (migration) ----------------------------
+    def groups(self):
+        """The carried fields for the compiled row loops: (int64 fields, float64 scalars, float64 vectors),
+        three tuples of arrays (made anew after :meth:`ensure` grows them)."""
+        ints, scalars, vectors = [], [], []
+        for name, (dtype, shape) in self._carried():
+            arr = getattr(self, name)
+            (vectors if shape else ints if dtype is np.int64 else scalars).append(arr)
+        return tuple(ints), tuple(scalars), tuple(vectors)
+
+    def row_width(self):
+        """float64 numbers per particle row (:func:`pack_rows`)."""
+        ints, scalars, vectors = self.groups()
+        return len(ints) + len(scalars) + self.dim * len(vectors)
+
     def rows(self, idx):
-        """Particles ``idx`` as float64 rows holding every field (ids are exact below 2^53)."""
-        k = len(idx)
-        cols = [getattr(self, name)[idx].reshape(k, int(np.prod(shape, dtype=np.int64))).astype(float)
-                for name, (_, shape) in self._carried()]
-        return np.concatenate(cols, axis=1)
+        """Particles ``idx`` as float64 rows holding every carried field (ids are exact below 2^53)."""
+        idx = np.asarray(idx, np.int64)
+        out = np.zeros((len(idx), self.row_width()))
+        pack_rows(idx, len(idx), *self.groups(), out)
+        return out
 
     def put_rows(self, rows, start):
-        """Store ``rows`` (from :meth:`rows`) as particles ``start .. start+len(rows)-1``."""
-        c = 0
-        k = len(rows)
-        for name, (dtype, shape) in self._carried():
-            w = int(np.prod(shape, dtype=np.int64))
-            getattr(self, name)[start:start + k] = rows[:, c:c + w].reshape((k,) + shape).astype(dtype)
-            c += w
+        """Store ``rows`` (from :meth:`rows`) as particles ``start .. start+len(rows)-1`` (within capacity)."""
+        unpack_rows(rows, start, *self.groups())
 
     def remove_owned(self, gone):
         """Drop the owned particles ``gone`` (a boolean mask over 0..n_own-1), keeping the others' order."""
@@ -99,17 +108,66 @@ class Particles:
         """Owned particles become ``order`` (indices into 0..n_own-1, each at most once); halo copies are dropped.
 
         The DERIVED fields are left as they are (the next evaluation recomputes them)."""
-        k = len(order)
-        for name, _ in self._carried():
-            _take_rows(getattr(self, name), order)
-        self.n_own = self.n = k
+        order = np.asarray(order, np.int64)
+        take_rows(order, len(order), *self.groups())
+        self.n_own = self.n = len(order)
 
 
 @njit(cache=True)
-def _take_rows(arr, order):
-    """arr[:len(order)] = arr[order] (rows; ``order`` holds each index at most once)."""
-    tmp = arr[order]
-    arr[:order.shape[0]] = tmp
+def pack_rows(idx, k, ints, scalars, vectors, out):
+    """Particles idx[:k] as rows of ``out``: the int64 fields, the scalars, then each vector's components."""
+    for r in range(k):
+        i = idx[r]
+        c = 0
+        for a in ints:
+            out[r, c] = a[i]
+            c += 1
+        for a in scalars:
+            out[r, c] = a[i]
+            c += 1
+        for a in vectors:
+            for d in range(a.shape[1]):
+                out[r, c] = a[i, d]
+                c += 1
+
+
+@njit(cache=True)
+def unpack_rows(rows, start, ints, scalars, vectors):
+    """Rows of :func:`pack_rows` as particles start, start + 1, ..."""
+    for r in range(rows.shape[0]):
+        i = start + r
+        c = 0
+        for a in ints:
+            a[i] = np.int64(rows[r, c])
+            c += 1
+        for a in scalars:
+            a[i] = rows[r, c]
+            c += 1
+        for a in vectors:
+            for d in range(a.shape[1]):
+                a[i, d] = rows[r, c]
+                c += 1
+
+
+@njit(cache=True)
+def take_rows(order, k, ints, scalars, vectors):
+    """Every field's first k rows become its rows order[:k] (each index at most once)."""
+    tmp_i = np.empty(k, np.int64)
+    tmp = np.empty(k)
+    for a in ints:
+        for r in range(k):
+            tmp_i[r] = a[order[r]]
+        a[:k] = tmp_i
+    for a in scalars:
+        for r in range(k):
+            tmp[r] = a[order[r]]
+        a[:k] = tmp
+    for a in vectors:
+        for d in range(a.shape[1]):
+            for r in range(k):
+                tmp[r] = a[order[r], d]
+            for r in range(k):
+                a[r, d] = tmp[r]
 
 
 @njit(cache=True)
