@@ -21,13 +21,13 @@ Per rank at P (the busiest rank: the most owned particles and ghosts):
     Pi    = p own + X                     (list pairs: p per particle, X crossing one slab boundary)
     n_loc = own + G + I                   (owned, ghosts, periodic images)
     T_msg = 2 alpha + 8 (3 d + 1) G / B + ceil(log2 P) alpha_ar          (P >= 2; P = 1: in t_0)
-    T_msg,b = 2 alpha + 8 (7 + 3 d) G / B + 2 ceil(log2 P) alpha_ar       (the build's rounds)
+    T_msg,b = 4 alpha + 8 (7 + 3 d) G / B + ceil(log2 P) alpha_ar         (the build's rounds)
     [...]: P >= 2 only; m_0, m_n fitted from records at P = 2 (migration's Python, outside MPI waits)
 
 p, X, G and I are counted on the initial lattice (``Case``); s (steps per
-list build) is a stated input per case. The build's own messages (a
-migration round with two all-reduces, a ghost round of 7 + 3d floats per
-ghost) are added to the build when P >= 2. Threads (beyond the slab limit)
+list build) is a stated input per case. The build's own messages (one
+all-reduce, a migration round and a ghost round of 7 + 3d floats per ghost,
+each round after a round of row counts) are added to the build when P >= 2. Threads (beyond the slab limit)
 share the pair passes only, which then cost ``thread_factor`` times more
 work; the rest of the step stays on one thread.
 """
@@ -180,8 +180,8 @@ def step_time(case, P, k, s, alpha, bandwidth, alpha_ar, threads=1):
     if P >= 2:
         stages = math.ceil(math.log2(P))
         msg = 2 * alpha + 8 * (3 * d + 1) * g / bandwidth + stages * alpha_ar
-        build += k["m_0"] + k["m_n"] * own    # migration (Python: strays selected, rows removed and added)
-        build += 2 * alpha + 8 * (7 + 3 * d) * g / bandwidth + 2 * stages * alpha_ar  # its messages, ghosts
+        build += k["m_0"] + k["m_n"] * own    # migration (strays sorted, rows packed, removed and added)
+        build += 4 * alpha + 8 * (7 + 3 * d) * g / bandwidth + stages * alpha_ar  # its messages, ghosts
     compute = k["t_0"] + pair_work + k["c_n"] * n_loc
     return {"P": P, "own": own, "ghosts": g, "images": images, "pairs": pairs, "n_loc": n_loc,
             "compute": compute, "build": build / s, "messages": msg, "total": compute + build / s + msg}

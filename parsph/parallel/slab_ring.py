@@ -97,6 +97,7 @@ class SlabRing:
         self._flag_all = np.zeros(1, np.int64)
         self._places = np.zeros(0, np.int64)
         self._periodic = self._period = None
+        self._local = None  # (dim, the local CellBox)
 
     # -- buffers --------------------------------------------------------------------
     def _buf(self, key, rows, width):
@@ -356,8 +357,10 @@ class SlabRing:
 
         Rows: this slab's own rows and M more on each side; x and z: the whole
         grid, plus M image rows at each periodic end. Block centres: the slab's
-        own rows, every x and z cell.
+        own rows, every x and z cell. The same at every build (the slab edges are fixed).
         """
+        if self._local is not None and self._local[0] == ps_dim:
+            return self._local[1]
         m = self.m
         lo, size, c_lo, c_hi = [], [], [], []
         for axis in range(3):
@@ -378,4 +381,6 @@ class SlabRing:
                 c_lo.append(0)
                 c_hi.append(a.n - 1)
         as_int = lambda v: np.array(v, np.int64)  # noqa: E731
-        return CellBox(as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi))
+        box = CellBox(as_int(lo), as_int(size), as_int(c_lo), as_int(c_hi))
+        self._local = (ps_dim, box)
+        return box

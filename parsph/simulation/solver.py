@@ -35,7 +35,7 @@ from parsph.errors import Interrupted
 from .guards import run_checks
 from parsph.physics.kernels import get_kernel
 from parsph.physics.lattice_sums import lattice_sum
-from parsph.sph.neighbours import cell_coords, grid_for
+from parsph.sph.neighbours import grid_for
 from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, state_maxima
 from parsph.sph.profiles import bin_centres, bin_sums, errors
@@ -100,6 +100,7 @@ class Simulation(CompiledSteps):
         self.force_rebuild = False
         self.stop = 0
         self.rebuilds = 0
+        self._coords = np.zeros((0, 3), np.int64)  # cell coordinates per local particle at a build
         self._init_blocks(native)
 
     def _pass_groups(self):
@@ -195,17 +196,15 @@ class Simulation(CompiledSteps):
             ring.wrap(ps, self.position_fields)
             ps.ref[:ps.n_own] = ps.pos[:ps.n_own]
         ring.migrate(ps, "ref")
-        n = ps.n_own
-        origin, side, ncell, periodic = self._grid_params
-        coords = np.zeros((ps.capacity, 3), np.int64)
-        cell_coords(ps.ref, 0, n, origin, side, ncell, periodic, coords)
+        if len(self._coords) < ps.capacity:
+            self._coords = np.zeros((ps.capacity, 3), np.int64)
+        coords = self._coords
         # owned particles in cell order (z, y, x), by gid inside a cell: neighbours sit close in memory
         local = ring.local_box(ps.dim)
-        order = self.neighbours.sort_owned(coords, ps.gid, n, local)
-        ps.reorder_owned(order)
-        coords[:n] = coords[order]
+        ps.reorder_owned(self.neighbours.sort_owned(ps, coords, local, self._grid_params))
         coords = ring.exchange_ghosts(ps, coords)
         coords = ring.add_images(ps, coords)
+        self._coords = coords
         ps.disp[:ps.n] = 0.0  # the next forward sends the owners' displacements
         self.neighbours.build(ps, coords, local)
         self.rates.attach(self.neighbours)

@@ -7,7 +7,6 @@ import numpy as np
 
 from . import neighbours
 from .dispatch import Calls
-from .particles import FLUID
 
 
 class NeighbourList:
@@ -20,19 +19,29 @@ class NeighbourList:
         self.pi = np.zeros(0, np.int32)
         self.pj = np.zeros(0, np.int32)
         self._cap = 0
+        self.start = np.zeros(0, np.int64)
         self._entries = None
         self._calls = Calls({"block_spread": neighbours.block_spread})
 
-    @staticmethod
-    def sort_owned(coords, gid, n, local):
-        """The order of particles 0..n-1 by cell and gid (a counting sort on the local cell box)."""
-        ncells = int(np.prod(local.size))
-        cell = np.zeros(n, np.int64)
-        order = np.zeros(n, np.int64)
-        start = np.zeros(ncells + 1, np.int64)
-        neighbours.local_cells(coords, n, local, cell)
-        neighbours.sort_by_cell(cell, gid, n, ncells, order, start)
-        return order
+    def _room(self, n, ncells):
+        if self._cap < n:
+            self._cap = max(n, int(1.3 * self._cap))
+            self.cell = np.zeros(self._cap, np.int64)
+            self.order = np.zeros(self._cap, np.int64)
+            self.need = np.zeros(self._cap, np.bool_)
+            self.pstart = np.zeros(self._cap + 1, np.int64)
+        if len(self.start) < ncells + 1:
+            self.start = np.zeros(ncells + 1, np.int64)
+            self.box = np.zeros((ncells, 6))
+            self.work = np.zeros((ncells, 6))
+
+    def sort_owned(self, ps, coords, local, grid_params):
+        """Cell coordinates of the owned particles from ``ps.ref`` into ``coords``, and the order of the
+        owned particles by cell and gid (indices into 0..n_own-1; ``coords`` already in that order)."""
+        n = ps.n_own
+        self._room(n, int(np.prod(local.size)))
+        neighbours.order_owned(ps.ref, ps.gid, n, *grid_params, local, coords, self.cell, self.order, self.start)
+        return self.order[:n]
 
     def build(self, ps, coords, local):
         """Sort the n local particles into cells and list their unique pairs within 2h + skin of their
@@ -44,33 +53,20 @@ class NeighbourList:
         n = ps.n
         self.local = local
         self.size = local.size
-        ncells = int(np.prod(local.size))
-        if self._cap < n:
-            self._cap = max(n, int(1.3 * self._cap))
-            self.cell = np.zeros(self._cap, np.int64)
-            self.order = np.zeros(self._cap, np.int64)
-            self.need = np.zeros(self._cap, np.bool_)
-            self.pstart = np.zeros(self._cap + 1, np.int64)
-        if not hasattr(self, "start") or len(self.start) < ncells + 1:
-            self.start = np.zeros(ncells + 1, np.int64)
-            self.box = np.zeros((ncells, 6))
-            self.work = np.zeros((ncells, 6))
-        neighbours.local_cells(coords, n, local, self.cell)
-        neighbours.sort_by_cell(self.cell, ps.gid, n, ncells, self.order, self.start)
-        self.cells = neighbours.CellOrder(self.cell, self.order, self.start, n)
-        self.need[:n] = False
-        self.need[:ps.n_own] = ps.kind[:ps.n_own] == FLUID
+        self._room(n, int(np.prod(local.size)))
         if len(self.pi) < 1:  # build_pairs needs room for one store beyond its pairs
             self.pi = np.zeros(16 * n + 64, np.int32)
             self.pj = np.zeros(16 * n + 64, np.int32)
         while True:
-            count = neighbours.build_pairs(ps.ref, self.need, self.cells, local, self.grid.cutoff, self.pstart,
-                                           self.pi, self.pj)
+            count = neighbours.build_list(ps.ref, ps.gid, ps.kind, n, ps.n_own, coords, local, self.grid.cutoff,
+                                          self.cell, self.order, self.start, self.need, self.pstart, self.pi,
+                                          self.pj)
             if count >= 0:
                 break
             cap = int(1.2 * -count) + 64
             self.pi = np.zeros(cap, np.int32)
             self.pj = np.zeros(cap, np.int32)
+        self.cells = neighbours.CellOrder(self.cell, self.order, self.start, n)
         self.npairs = count
         self.n = n
         self._entries = None

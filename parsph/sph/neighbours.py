@@ -39,6 +39,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from .particles import FLUID
+
 CELLS_PER_CUTOFF = 2  # M: cells of side r_c / 2; blocks of 5^d cells span 2.5 r_c
 
 
@@ -227,6 +229,32 @@ def build_pairs(pos, need, cells, local, cutoff, pstart, pi, pj):
                     npairs += (r2 < cut2) & (need_i | ns[b])
     pstart[n] = min(npairs, cap)
     return npairs if npairs < cap else -npairs
+
+
+@njit(cache=True)
+def order_owned(ref, gid, n, origin, side, ncell, periodic, local, coords, cell, order, start):
+    """At a build, the owned particles 0..n-1: their cell coordinates (from ``ref``) into ``coords``, their
+    order by cell and gid into ``order`` (:func:`sort_by_cell`), and ``coords`` put in that order."""
+    cell_coords(ref, 0, n, origin, side, ncell, periodic, coords)
+    local_cells(coords, n, local, cell)
+    ncells = local.size[0] * local.size[1] * local.size[2]
+    sort_by_cell(cell, gid, n, ncells, order, start)
+    tmp = coords[:n].copy()
+    for a in range(n):
+        for d in range(3):
+            coords[a, d] = tmp[order[a], d]
+
+
+@njit(cache=True)
+def build_list(ref, gid, kind, n, n_own, coords, local, cutoff, cell, order, start, need, pstart, pi, pj):
+    """The list of the n local particles in one call: their cells, the sort by cell and gid, which need
+    sums (the owned fluid particles), and the pairs (:func:`build_pairs`; its return)."""
+    local_cells(coords, n, local, cell)
+    ncells = local.size[0] * local.size[1] * local.size[2]
+    sort_by_cell(cell, gid, n, ncells, order, start)
+    for i in range(n):
+        need[i] = i < n_own and kind[i] == FLUID
+    return build_pairs(ref, need, CellOrder(cell, order, start, n), local, cutoff, pstart, pi, pj)
 
 
 @njit(cache=True)
