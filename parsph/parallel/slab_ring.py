@@ -161,23 +161,15 @@ class SlabRing:
         e[0] += len(bufs)
         e[1] += sum(b.nbytes for b in bufs)
 
-    def _exchange(self, key, n_up, n_down, width, up_rows=None):
+    def _exchange(self, key, n_up, n_down, width):
         """Known sizes: send the first n_up/n_down rows of the send buffers, receive n_below/n_above rows."""
-        c = self.comm
-        below = self._buf(("recv below", key), self.n_below, width)[:self.n_below]
-        above = self._buf(("recv above", key), self.n_above, width)[:self.n_above]
-        up = self._buf(("send up", key), n_up, width)[:n_up]
-        down = self._buf(("send down", key), n_down, width)[:n_down]
-        reqs = [c.Irecv([below, MPI.DOUBLE], source=self.left, tag=TAG_UP),
-                c.Irecv([above, MPI.DOUBLE], source=self.right, tag=TAG_DOWN),
-                c.Isend([up, MPI.DOUBLE], dest=self.right, tag=TAG_UP),
-                c.Isend([down, MPI.DOUBLE], dest=self.left, tag=TAG_DOWN)]
+        nb, na = self.n_below, self.n_above
+        below, above = self._buf(("recv below", key), nb, width), self._buf(("recv above", key), na, width)
+        up, down = self._buf(("send up", key), n_up, width), self._buf(("send down", key), n_down, width)
         method = {"fwd": "forward", "scalar": "refresh"}[key]
-        self._count(method, up, down)
-        t0 = self.clock()
-        MPI.Request.Waitall(reqs)
-        self.stats["waiting"][method] += self.clock() - t0
-        return below, above
+        self._rounds(up, n_up, down, n_down, below, nb, above, na, (TAG_UP, TAG_DOWN), method)
+        self._count(method, up[:n_up], down[:n_down])
+        return below[:nb], above[:na]
 
     # -- every step -------------------------------------------------------------------
     def forward(self, ps):
