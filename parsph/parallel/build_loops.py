@@ -34,35 +34,29 @@ def sort_strays(y, n, bounds, rank, size, idx):
     the shorter way round to their owner), those going down. Returns (staying, up, down, hops), hops the
     most slabs any of them is from its owner."""
     nb = bounds.shape[0]
-    owner = np.empty(n, np.int64)
+    way = np.empty(n, np.int64)  # 0: stays, 1: up, 2: down
     stay = up = 0
     hops = 0
     half = size // 2
     for i in range(n):
         o = np.searchsorted(bounds, y[i, 1], side="right") - 1  # the rank whose [lo, hi) holds y
         o = min(max(o, 0), nb - 2)
-        owner[i] = o
-        if o == rank:
-            stay += 1
-            continue
         ahead = (o - rank) % size
-        if ahead <= half:
+        if ahead == 0:
+            way[i] = 0
+            stay += 1
+        elif ahead <= half:
+            way[i] = 1
             up += 1
             hops = max(hops, ahead)
         else:
+            way[i] = 2
             hops = max(hops, size - ahead)
-    k_stay, k_up, k_down = 0, stay, stay + up
+    place = np.array([0, stay, stay + up])
     for i in range(n):
-        o = owner[i]
-        if o == rank:
-            idx[k_stay] = i
-            k_stay += 1
-        elif (o - rank) % size <= half:
-            idx[k_up] = i
-            k_up += 1
-        else:
-            idx[k_down] = i
-            k_down += 1
+        w = way[i]
+        idx[place[w]] = i
+        place[w] += 1
     return stay, up, n - stay - up, hops
 
 

@@ -8,7 +8,7 @@ capacity so that rebuilds rarely allocate.
 Every field is a per-particle array of float64 (or int64) with an optional
 trailing shape. Whole particles travel between ranks only at a rebuild
 (migration), as float64 rows holding every field that is not recomputed
-after a rebuild (:meth:`Particles.rows`; ``DERIVED`` are not carried), so a
+after a rebuild (:func:`pack_rows`; ``DERIVED`` are not carried), so a
 field added with :meth:`Particles.add_field` (the midpoint integrator's
 saved state, say) migrates without further code.
 
@@ -88,21 +88,9 @@ class Particles:
         ints, scalars, vectors = self.groups()
         return len(ints) + len(scalars) + self.dim * len(vectors)
 
-    def rows(self, idx):
-        """Particles ``idx`` as float64 rows holding every carried field (ids are exact below 2^53)."""
-        idx = np.asarray(idx, np.int64)
-        out = np.zeros((len(idx), self.row_width()))
-        pack_rows(idx, len(idx), *self.groups(), out)
-        return out
-
     def put_rows(self, rows, start):
-        """Store ``rows`` (from :meth:`rows`) as particles ``start .. start+len(rows)-1`` (within capacity)."""
+        """Store ``rows`` (from :func:`pack_rows`) as particles ``start .. start+len(rows)-1`` (within capacity)."""
         unpack_rows(rows, start, *self.groups())
-
-    def remove_owned(self, gone):
-        """Drop the owned particles ``gone`` (a boolean mask over 0..n_own-1), keeping the others' order."""
-        keep = np.flatnonzero(~gone)
-        self.reorder_owned(keep)
 
     def reorder_owned(self, order):
         """Owned particles become ``order`` (indices into 0..n_own-1, each at most once); halo copies are dropped.
