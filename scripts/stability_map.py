@@ -612,7 +612,7 @@ def run_settling_case(theta0, Re, nx, multiple, source="grid", steps=None):
         **outcome, "source": source, "commit": COMMIT,
         "integrator": cfg.integrator, "dt_force": lim["force"], "dt_damping": lim.get("damping", math.inf),
         "theta_eq_max": th_eq, "dt_limit_eq": min(lim_eq.values()), "limit_term_eq": min(lim_eq, key=lim_eq.get),
-        "ke_bound": cfg.scene.max_kinetic_energy(cfg, 1.0, 0.0),
+        "ke_bound": cfg.scene.max_kinetic_energy(cfg, 1.0),
     }
 
 

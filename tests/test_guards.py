@@ -8,6 +8,12 @@ names the wrong particle, misses the theta range, or lets a particle jump a slab
 - an observer passed to ``run`` sees every step and changes nothing (bit for bit);
 - the criteria as an observer reads them (``guards.read``: the stability map's and the stability
   tests'), on particles whose depths, theta, energy and speeds are written here;
+- the per-rank report the compiled blocks and ``check`` share (``guards.check_report``), on
+  particles written here: the first failing check in CHECKS order, its worst particle, the
+  fluid's kinetic energy and mass, the fastest fluid particle;
+- the compiled blocks' checks (every ``checks.every`` steps inside a block) stop a run at the
+  first checked step where the deviation an observer reads exceeds the limit, with the same
+  GuardResult as the Python path;
 - check 5 ("moved more than h in one step"): ``mpirun -n 2 parsph run`` with the plate moving
   4h in one step exits 3 with one message line, at the first step (the jump is counted with the
   non-finite states in the per-step all-reduce).
@@ -95,9 +101,9 @@ def test_worst_wall_offender_is_named_across_ranks(tmp_path):
 
 
 # ---- theta out of range (check 3) ------------------------------------------------------------------
-def _sim(*extra):
+def _sim(*extra, native=None):
     cfg = config.load(str(PAPER_TOML), [*SMALL, "output.t_end=1e-4", *extra])
-    return Simulation(cfg, MPI.COMM_SELF)
+    return Simulation(cfg, MPI.COMM_SELF, native=native)
 
 
 def test_theta_range_names_the_furthest_particle():
@@ -126,6 +132,100 @@ def test_theta_range_stops_a_run():
         sim.run()
     assert str(e.value).startswith(f"check failed: {CHECKS[3]} at step "), e.value
     assert sim.step <= 10
+
+
+def test_check_report_by_hand(paper_cfg):
+    """check_report on five particles written here: each check's worst particle in CHECKS order as
+    the particles are made worse one check at a time; the kinetic energy and mass of the fluid only."""
+    from parsph.simulation.guards import N_FASTEST, N_REPORT, check_report, limits_of
+    from parsph.sph.particles import WALL
+    cfg = paper_cfg()
+    lim = limits_of(cfg, 4.0)
+    assert lim.ke_bound == pytest.approx(0.5 * 4.0 * cfg.V_w ** 2, rel=1e-15)
+    assert lim.theta_tol == pytest.approx(cfg.get("checks.theta_change") * cfg.theta0, rel=1e-15)
+    kind = np.array([FLUID, FLUID, FLUID, WALL, FLUID])
+    pos = np.array([[1e-3, 0.0], [2e-3, 1e-3], [5e-3, 2e-3], [-5e-4, 0.0], [7e-3, 3e-3]])
+    vel = np.array([[0.0, 1.0], [0.3, 0.4], [0.0, -0.5], [0.0, 9.0], [0.0, 0.0]])
+    acc = np.zeros((5, 2))
+    theta = np.full(5, cfg.theta0)
+    jump = np.zeros(5)
+    mass = np.array([2.0, 1.0, 1.0, 50.0, 0.0])
+    report, fastest = np.zeros(N_REPORT), np.zeros(N_FASTEST)
+
+    def run(n=5):
+        return check_report(pos, vel, acc, theta, jump, kind, mass, n, lim, report, fastest)
+
+    assert run() == pytest.approx(0.5 * (2 * 1.0 + 0.25 + 0.25), rel=1e-15)   # the wall's 9 m/s does not count
+    assert report[0] == 0 and list(fastest) == [1.0, 0, 4.0]
+    jump[1], jump[2] = 1.5 * cfg.h, 2.0 * cfg.h                                # check 5: the longer jump
+    run()
+    assert list(report) == [5, 2 * cfg.h, 2, pos[2, 0], pos[2, 1], 2 * cfg.h]
+    theta[0], theta[4] = 1.6 * cfg.theta0, 0.2 * cfg.theta0                  # check 3 comes first: 0.8 theta_0 off
+    run()
+    assert list(report[:3]) == [3, pytest.approx(0.8 * cfg.theta0, rel=1e-14), 4] and report[5] == theta[4]
+    pos[1, 0], pos[2, 0] = L + 1e-5, -3e-5                                  # check 2: the deeper, below the floor
+    run()
+    assert list(report[:3]) == [2, pytest.approx(3e-5, rel=1e-12), 2] and report[5] == report[1]
+    pos[3, 0] = -1.0                                                         # a wall particle beyond: not check 2
+    run()
+    assert report[2] == 2
+    acc[3, 1] = np.nan                                                       # check 1: any particle, the first
+    vel[4, 0] = np.inf
+    run()
+    assert list(report[:3]) == [1, 1.0, 3]
+    assert list(fastest) == [1.0, 0, 4.0]                                  # the non-finite fluid is not fastest
+    assert report[0] == 1 and run(3) >= 0 and report[0] == 2                # particles past n are not read
+
+
+def _first_crossing(comm, every, *extra):
+    """The checks.theta_change between two of the deviations an observer reads (numpy, guards.read,
+    the largest over the ranks) at the steps checked every ``every`` of the first 24, and the first
+    checked step whose deviation exceeds it."""
+    from parsph.simulation.guards import read
+    devs = []
+    cfg = config.load(str(PAPER_TOML), [*SMALL, "output.t_end=2.4e-4", *extra])
+    Simulation(cfg, comm).run(observe=lambda s: devs.append(read(s.particles(), s.cfg).theta_dev))
+    devs = np.array(devs)
+    comm.Allreduce(MPI.IN_PLACE, devs, op=MPI.MAX)
+    steps = [s for s in range(1, len(devs)) if s % every == 0]
+    values = sorted({devs[s] for s in steps})
+    frac = float(0.5 * (values[len(values) // 2 - 1] + values[len(values) // 2]))
+    expected = next(s for s in steps if devs[s] > frac)
+    assert 0 < expected < len(devs) - 1 and devs[0] < frac
+    return frac, expected
+
+
+def _stopped(comm, every, frac, native, *extra):
+    cfg = config.load(str(PAPER_TOML), [*SMALL, "output.t_end=2.4e-4", f"checks.every={every}",
+                                        f"checks.theta_change={frac!r}", *extra])
+    sim = Simulation(cfg, comm, native=native)
+    assert sim.native == (native is None)
+    with pytest.raises(GuardError) as e:
+        sim.run()
+    return e.value.result
+
+
+@pytest.mark.parametrize("every", [1, 4])
+def test_compiled_checks_stop_where_an_observer_sees_the_limit_crossed(every):
+    """A run whose checks.theta_change lies between two of the deviations an observer reads: the compiled
+    blocks' checks (every ``every`` steps) stop it at the first checked step whose deviation exceeds the
+    limit, with the GuardResult of the Python path."""
+    frac, expected = _first_crossing(MPI.COMM_SELF, every)
+    compiled, python = (_stopped(MPI.COMM_SELF, every, frac, native) for native in (None, False))
+    assert compiled == python
+    assert compiled.code == 3 and compiled.step == expected
+
+
+@pytest.mark.mpi(min_size=2)
+def test_compiled_checks_on_several_ranks():
+    """As above on P ranks (checks every 3 steps, L_y = 4 mm for up to 4 slabs): the step the ranks'
+    largest deviation says, the same GuardResult on every rank, on the Python path and on one rank."""
+    comm, ly = MPI.COMM_WORLD, "domain.Ly=0.004"
+    frac, expected = _first_crossing(comm, 3, ly)
+    compiled, python = (_stopped(comm, 3, frac, native, ly) for native in (None, False))
+    assert compiled == python and compiled.code == 3 and compiled.step == expected
+    assert comm.allgather(compiled) == [compiled] * comm.size
+    assert _stopped(MPI.COMM_SELF, 3, frac, None, ly) == compiled
 
 
 # ---- an observer of the run (what the stability map uses instead of overriding the checks) -----------

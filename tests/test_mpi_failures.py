@@ -60,18 +60,19 @@ def test_exception_on_one_rank_ends_the_job(tmp_path, rank, env):
 
 
 # ---- (b) a NaN on one rank -----------------------------------------------------------------
-@pytest.mark.parametrize("inject_at, check_every, caught_at", [
-    (10, 5, 10),      # the run-time checks see it before the next step
-    (11, 5, 12),      # between checks: the next integration's collective flag catches it
-    (11, 1000, 12),   # checks far apart: the per-step flag alone
-], ids=["on-check-step", "between-checks", "checks-rare"])
-def test_nan_on_one_rank_stops_every_rank_with_exit_3(tmp_path, inject_at, check_every, caught_at):
+@pytest.mark.parametrize("inject_at, check_every, native, caught_at", [
+    (10, 5, "0", 10),     # Python path: the run-time checks of step 10 see it before the next step
+    (10, 5, "1", 11),     # compiled blocks: put in after the block's checks; the next integration's flag
+    (11, 5, "1", 12),     # between checks: the next integration's collective flag catches it
+    (11, 1000, "1", 12),  # checks far apart: the per-step flag alone
+], ids=["on-check-step-python", "after-check-step", "between-checks", "checks-rare"])
+def test_nan_on_one_rank_stops_every_rank_with_exit_3(tmp_path, inject_at, check_every, native, caught_at):
     """A NaN velocity on rank 1: exit 3 and ONE message, from the checks (every checks.every steps)
     or, between them, from the per-step collective non-finite flag right after integration."""
     r = launch.run(launch.mpirun_cmd(2, launch.PYTHON, helper("inject_one_rank.py"), "nan", 1, inject_at, "--",
                                      launch.PAPER, *sets(f"checks.every={check_every}"),
                                      "--out", tmp_path / "out", "--force", "--quiet"),
-                   timeout=HANG_GUARD)
+                   timeout=HANG_GUARD, PARSPH_NATIVE_MPI=native)
     assert "nan_one_rank: NaN put into particle" in r.stderr, r   # the injection happened
     assert r.returncode == 3, r
     assert launch.count_lines(r.output, "check failed") == 1, r

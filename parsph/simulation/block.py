@@ -15,6 +15,9 @@ when something happens there:
   are not computed yet;
 - ``BAD`` / ``BAD_MID``: the last integration left a non-finite state or a
   jump beyond h on some rank (Python runs the checks, which raise);
+- ``CHECK``: the run-time checks of :mod:`.guards`, run every ``checks.every``
+  steps once the step's rates are computed, failed on some rank (Python runs
+  them again to name the particle and raises);
 - ``STOP``: a signal's stop, agreed at a sync in this block (rates computed);
 - ``NEED_LIMIT``: (auto dt) the largest theta left the bucket whose linear
   limit Python computed; nothing of the step is done yet;
@@ -30,24 +33,26 @@ import numpy as np
 from numba import njit
 
 from parsph.parallel import native_halo
-from parsph.parallel.native_mpi import OP_MAX, allreduce, wtime
+from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, wtime
 from parsph.sph import equations
 from parsph.sph import integrators
 from parsph.sph.neighbours import block_spread
 from parsph.sph.particles import state_maxima
+from .guards import N_FASTEST, N_REPORT, check_report
 
-EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR = range(8)
+EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = range(9)
 CODES = ("event", "rebuild", "rebuild at the midpoint", "bad state", "bad state at the midpoint", "stop",
-         "new limit", "MPI error")
+         "new limit", "MPI error", "check failed")
 # ctl (float64): the block's clock and its inputs from Python
 T, DT, T_TARGET, LIN_THETA, LIN_DT, STOP_IN, FORCE_IN, STOP_OUT, LAND, EVAL_FIRST = range(10)
 N_CTL = 10
 # ictl (int64)
-STEP, STOP_STEP, STEPS_DONE = range(3)
-N_ICTL = 3
+STEP, STOP_STEP, STEPS_DONE, CHECKED = range(4)  # CHECKED: the last step the block checked
+N_ICTL = 4
 # timers (float64 seconds), in the solver's phase names
-TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate")
-SYNC, DENSITY, HALO, FORCES, INTEGRATE = range(5)
+TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
+SYNC, DENSITY, HALO, FORCES, INTEGRATE, CHECKS = range(6)
+N_SCRATCH = 6 + 6 + N_REPORT + N_FASTEST + 4  # run_block's buffers
 
 
 class Motion(NamedTuple):
@@ -151,6 +156,19 @@ def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all):
 
 
 @njit(cache=True)
+def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
+    """The run-time checks on every rank (one all-reduce): 1 where one failed somewhere, 0 where none
+    did, -1 on an MPI error."""
+    ke = check_report(parts.pos, parts.vel, parts.acc, parts.theta, motion.jump, parts.kind, parts.mass,
+                      parts.n_own, lim, report, fastest)
+    sums[0] = 1.0 if report[0] > 0 else 0.0
+    sums[1] = ke
+    if allreduce(plan.h, OP_SUM, sums, sums_all) != 0:
+        return -1
+    return 1 if sums_all[0] > 0 or not sums_all[1] <= lim.ke_bound else 0
+
+
+@njit(cache=True)
 def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl, flags, flags_all,
                    bad, skin, timers, mid):
     """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
@@ -170,17 +188,22 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
 
 
 @njit(cache=True)
-def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, modes, ctl, ictl, timers,
-              scratch):
+def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, lim, modes, ctl, ictl,
+              timers, scratch):
     """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
 
     ``ctl``, ``ictl`` hold the clock (t, dt, step) and the inputs (target
     time, the linear limit's bucket, stop and forced-rebuild flags, the step
-    to stop at, whether to evaluate the rates of the state first); ``timers`` gets the phases' seconds; ``scratch`` (12
-    float64) the all-reduces' buffers.
+    to stop at, whether to evaluate the rates of the state first); ``lim`` the checks' limits
+    (guards.Limits); ``timers`` gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the
+    all-reduces' buffers.
     """
     flags, flags_all = scratch[0:3], scratch[3:6]
     maxima, maxima_all = scratch[6:9], scratch[9:12]
+    report = scratch[12:12 + N_REPORT]
+    fastest = scratch[12 + N_REPORT:12 + N_REPORT + N_FASTEST]
+    sums = scratch[12 + N_REPORT + N_FASTEST:14 + N_REPORT + N_FASTEST]
+    sums_all = scratch[14 + N_REPORT + N_FASTEST:16 + N_REPORT + N_FASTEST]
     pos, vel, acc, kind = parts.pos, parts.vel, parts.acc, parts.kind
     n_own = parts.n_own
     ictl[STEPS_DONE] = 0
@@ -244,6 +267,15 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                               flags, flags_all, bad, rule.skin, timers, False)
         if code >= 0:
             return code
+        if ictl[STEP] % lim.every == 0:  # the run-time checks, before a stop as Python's loop orders them
+            t0 = wtime()
+            failed = _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all)
+            ictl[CHECKED] = ictl[STEP]
+            timers[CHECKS] += wtime() - t0
+            if failed < 0:
+                return MPI_ERROR
+            if failed:
+                return CHECK
         if ctl[STOP_OUT] != 0.0:  # agreed at this step's syncs: the step is done, its rates computed
             return STOP
         if land:

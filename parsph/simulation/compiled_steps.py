@@ -30,7 +30,7 @@ class CompiledSteps:
         self.ring.native = self.native  # the list build's messages take the same route
         self._ctl = np.zeros(block.N_CTL)
         self._ictl = np.zeros(block.N_ICTL, np.int64)
-        self._scratch = np.zeros(12)
+        self._scratch = np.zeros(block.N_SCRATCH)
         self._timers_block = np.zeros(len(block.TIMER_PHASES))
         self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
                           float(limits.THETA_STEP), float(self.skin))
@@ -56,13 +56,13 @@ class CompiledSteps:
             modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
             self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
                                 N.local, N.box, N.work, R.consts, R.switches,
-                                R.gather_arrays() if threaded else self._no_gather, self._rule, modes, self._ctl,
+                                R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, modes, self._ctl,
                                 self._ictl, self._timers_block, self._scratch)
             self._block_fn = None
         if self._block_fn is None:
             # the arguments' types are those of the first build with these modes (every array is made anew
             # alike, C-contiguous, at each build): their kinds are read once per modes, not at every build
-            modes = self._block_args[12]
+            modes = self._block_args[13]
             fn = self._block_versions.get(modes)
             if fn is None:
                 fn = self._block_versions.get(kinds(self._block_args))
@@ -73,20 +73,20 @@ class CompiledSteps:
             self._block_fn = fn
         return self._block_fn
 
-    def _advance(self, pending, check_every, most=None, stop_requested=None):
-        """At least one step, up to the next output, check or end (``most`` steps at most), in compiled
-        blocks where the messages can be sent from compiled code, else step by step."""
+    def _advance(self, pending, most=None, stop_requested=None):
+        """At least one step, up to the next output or the end (``most`` steps at most, else about
+        BLOCK_SECONDS of them), in compiled blocks that run the checks too where the messages can be sent
+        from compiled code, else one step."""
         cfg = self.cfg
         target = min(pending[0], cfg.t_end) if pending else cfg.t_end
         if not self.native:
             self.step_once(stop_requested, target)
             return
-        stop_step = (self.step // check_every + 1) * check_every
+        stop_step = self.step + (most or self._block_steps)
         if not cfg.dt_auto:
             stop_step = min(stop_step, cfg.nsteps)
             if pending:
                 stop_step = min(stop_step, max(round(pending[0] / cfg.dt), self.step + 1))
-        stop_step = min(stop_step, self.step + (most or self._block_steps))
         self._stop_local = stop_requested() if stop_requested is not None else 0
         self._run_blocks(stop_step, target)
 
@@ -107,7 +107,11 @@ class CompiledSteps:
             self.force_rebuild = False
             if ctl[block.STOP_OUT]:
                 self.stop = int(ctl[block.STOP_OUT])
+            self._checked = int(ictl[block.CHECKED])
             self._add_block_timers()
+            if code == block.CHECK:
+                self.check()  # raises GuardError on every rank (it passes only where a sum's last bit differs)
+                break
             if code == block.NEED_LIMIT:
                 self._new_limit()
                 continue

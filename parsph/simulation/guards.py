@@ -1,22 +1,26 @@
 """Run-time checks: a blow-up stops every rank with one message naming the worst particle.
 
-:func:`run_checks` is collective. It finds, over all ranks, the first check
-(in ``CHECKS`` order) that fails anywhere and within it the particle that
-fails it most (deepest through a wall, furthest from theta_0, largest
-jump); for the energy bound, the fastest fluid particle. It raises
-:class:`GuardError` on every rank alike, carrying a :class:`GuardResult`
-(the check's code, the particle, its position and value), so that callers
-(the stability map, say) classify failures without reading the message.
+:func:`check_report` (numba) applies the checks' criteria to one rank's
+particles: the first check (in ``CHECKS`` order) that fails there and the
+particle that fails it most (deepest through a wall, furthest from theta_0,
+largest jump), the fastest fluid particle and the fluid's kinetic energy
+and mass. The compiled blocks (:mod:`.block`) run it every ``checks.every``
+steps and all-reduce whether any rank failed; :func:`run_checks` (collective,
+Python) runs it, gathers the reports and raises :class:`GuardError` on every
+rank alike, carrying a :class:`GuardResult` (the check's code, the particle,
+its position and value), so that callers (the stability map, say) classify
+failures without reading the message.
 
-The criteria are defined once (:func:`_per_particle`): the checks apply them
-collectively with their thresholds, :func:`read` measures them over one rank's
-particles without stopping anything (for observers of a run: the stability
-map, the stability tests).
+:func:`read` measures the criteria over one rank's particles without
+stopping anything (for observers of a run: the stability map, the stability
+tests), against a theta of the caller's choice.
 """
 from dataclasses import dataclass
 import math
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from parsph.errors import GuardError
 from parsph.sph.particles import FLUID
@@ -26,6 +30,79 @@ CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle
           5: "particle moved more than h in one step"}
 CRITERIA = ("nonfinite", "wall", "theta", "energy")   # checks 1-4 by name, as Reading.failed names them
 CRITERION_OF = {1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}
+N_REPORT, N_FASTEST = 6, 3  # check_report's rows: (code, severity, place, x, y, value), (|v|^2, place, fluid mass)
+
+
+class Limits(NamedTuple):
+    """The checks' thresholds, as :func:`check_report` and the compiled blocks take them."""
+    every: int          # checks.every: the steps between two checks
+    walls: bool         # plates at x = 0 and x = L (check 2)
+    L: float
+    theta0: float
+    theta_tol: float    # checks.theta_change x theta_0 (check 3)
+    h: float            # the jump limit (check 5)
+    ke_bound: float     # check 4: the scene's bound at the run's fluid mass (inf: checks.energy off)
+
+
+def limits_of(cfg, fluid_mass):
+    """The Limits of a run whose fluid (over all ranks) has mass ``fluid_mass``."""
+    bound = cfg.scene.max_kinetic_energy(cfg, fluid_mass) if cfg.get("checks.energy") else math.inf
+    return Limits(int(cfg.get("checks.every")), bool(cfg.scene.walls), float(cfg.L), float(cfg.theta0),
+                  float(cfg.get("checks.theta_change") * cfg.theta0), float(cfg.h), float(bound))
+
+
+@njit(cache=True)
+def check_report(pos, vel, acc, theta, jump, kind, mass, n, lim, report, fastest):
+    """Checks 1, 2, 3 and 5 of particles 0..n-1; returns the fluid's kinetic energy 0.5 sum m |v|^2.
+
+    ``report`` gets (code, severity, place, x, y, value) of the first check
+    in CHECKS order that fails (code 0: none) at the particle that fails it
+    most (the first such place); severity 1 (check 1: a non-finite position,
+    velocity or acceleration, any particle), the depth beyond a wall plane
+    (2), |theta - theta_0| above lim.theta_tol (3) or the jump above h (5),
+    of finite fluid particles (any finite particle for 5). ``fastest``: the
+    largest |v|^2 of a finite fluid particle (-1: none), its place and the
+    fluid's mass.
+    """
+    dim = pos.shape[1]
+    worst = np.zeros(6)  # by code: the largest severity so far
+    place = np.full(6, -1)
+    fast, fast_at, ke, fluid_mass = -1.0, -1, 0.0, 0.0
+    for i in range(n):
+        v2 = 0.0
+        finite = True
+        for d in range(dim):
+            v2 += vel[i, d] * vel[i, d]
+            finite = finite and math.isfinite(pos[i, d]) and math.isfinite(vel[i, d]) and math.isfinite(acc[i, d])
+        fluid = kind[i] == FLUID
+        if fluid:
+            ke += mass[i] * v2
+            fluid_mass += mass[i]
+        if not finite:
+            if worst[1] < 1.0:
+                worst[1], place[1] = 1.0, i
+            continue
+        if fluid:
+            if v2 > fast:
+                fast, fast_at = v2, i
+            depth = max(-pos[i, 0], pos[i, 0] - lim.L)
+            if lim.walls and depth > 0 and depth > worst[2]:
+                worst[2], place[2] = depth, i
+            dev = abs(theta[i] - lim.theta0)
+            if dev > lim.theta_tol and dev > worst[3]:
+                worst[3], place[3] = dev, i
+        if jump[i] > lim.h and jump[i] > worst[5]:
+            worst[5], place[5] = jump[i], i
+    report[:] = 0.0
+    for code in (1, 2, 3, 5):
+        k = place[code]
+        if k >= 0:
+            value = theta[k] if code in (1, 3) else (worst[2] if code == 2 else jump[k])
+            report[0], report[1], report[2], report[3], report[4], report[5] = (code, worst[code], k, pos[k, 0],
+                                                                                pos[k, 1], value)
+            break
+    fastest[0], fastest[1], fastest[2] = fast, fast_at, fluid_mass
+    return 0.5 * ke
 
 
 @dataclass(frozen=True)
@@ -72,7 +149,7 @@ class Reading:
         """{criterion: whether it fails}: beyond a wall, theta_dev above theta_frac, the kinetic energy
         above the scene's bound (the checks' own thresholds, but theta's, which is the caller's)."""
         return {"nonfinite": self.nonfinite, "wall": self.depth > 0, "theta": not self.theta_dev <= theta_frac,
-                "energy": not self.kinetic_energy <= cfg.scene.max_kinetic_energy(cfg, self.mass, t)}
+                "energy": not self.kinetic_energy <= cfg.scene.max_kinetic_energy(cfg, self.mass)}
 
 
 def read(fields, cfg, theta_ref=None, acc=None):
@@ -95,31 +172,20 @@ def read(fields, cfg, theta_ref=None, acc=None):
                    float(v[:, 1].min(initial=math.inf)), float(v[:, 1].max(initial=-math.inf)))
 
 
-def run_checks(collect, ps, cfg, step, t):
+def run_checks(collect, ps, cfg, step, t, lim):
     """Collective run-time checks of the owned particles; raises GuardError on every rank on failure.
 
-    ``collect``: the solver's :class:`parsph.parallel.collectives.Collectives`."""
+    ``collect``: the solver's :class:`parsph.parallel.collectives.Collectives`; ``lim``: the run's Limits."""
     n = ps.n_own
-    pos, vel = ps.pos[:n], ps.vel[:n]
-    scene = cfg.scene
-    report = np.zeros(6)  # code, severity, gid, x, y, value
-    fluid, finite, depth, dev = _per_particle(pos, vel, ps.theta[:n], ps.kind[:n], cfg, ps.acc[:n])
-    jump = np.where(finite, ps.jump[:n], 0.0)
-    for code, severity, value in ((1, np.where(finite, 0.0, 1.0), ps.theta[:n]), (2, np.where(depth > 0, depth, 0.0), depth),
-                                  (3, np.where(dev > cfg.get("checks.theta_change") * cfg.theta0, dev, 0.0), ps.theta[:n]),
-                                  (5, np.where(jump > cfg.h, jump, 0.0), jump)):
-        if n and severity.max() > 0:
-            k = int(np.argmax(severity))
-            report[:] = code, severity[k], ps.gid[k], pos[k, 0], pos[k, 1], value[k]
-            break
-    speed2 = np.where(fluid & finite, (vel ** 2).sum(axis=1), -1.0)
-    k = int(np.argmax(speed2)) if n else 0
-    fastest = np.array([speed2[k] if n else -1.0, ps.gid[k] if n else -1, pos[k, 0] if n else 0.0,
-                        pos[k, 1] if n else 0.0])
-    energy = np.array([0.5 * (ps.mass[:n][fluid] * (vel[fluid] ** 2).sum(axis=1)).sum(), ps.mass[:n][fluid].sum()])
+    report, fastest = np.zeros(N_REPORT), np.zeros(N_FASTEST)
+    ke = check_report(ps.pos, ps.vel, ps.acc, ps.theta, ps.jump, ps.kind, ps.mass, n, lim, report, fastest)
+    if report[0] > 0:
+        report[2] = ps.gid[int(report[2])]
+    k = int(fastest[1])
+    fast = collect.gather(np.array([fastest[0], ps.gid[k], ps.pos[k, 0], ps.pos[k, 1]]) if k >= 0
+                          else np.array([-1.0, -1.0, 0.0, 0.0]))
     reports = collect.gather(report)
-    fast = collect.gather(fastest)
-    totals = collect.sum(energy)
+    totals = collect.sum(np.array([ke, fastest[2]]))
     failed = reports[reports[:, 0] > 0]
     where = f"at step {step}, t = {t:.6g} s"
     y_shown = lambda y: y % cfg.Ly if math.isfinite(y) else y  # noqa: E731  (positions wrap at rebuilds only)
@@ -132,10 +198,9 @@ def run_checks(collect, ps, cfg, step, t):
         msg = (f"check failed: {CHECKS[code]} {where}: particle {int(gid)} "
                f"at x = {x:.6g} m, y = {y_shown(y):.6g} m{extra}")
         raise GuardError(GuardResult(code, step, t, int(gid), x, y_shown(y), float(value), msg))
-    bound = scene.max_kinetic_energy(cfg, totals[1], t)
-    if cfg.get("checks.energy") and not totals[0] <= bound:
+    if not totals[0] <= lim.ke_bound:
         s2, gid, x, y = fast[np.argmax(fast[:, 0])]
-        msg = (f"check failed: {CHECKS[4]} {where}: {totals[0]:.4g} J/m > {bound:.4g} J/m; "
+        msg = (f"check failed: {CHECKS[4]} {where}: {totals[0]:.4g} J/m > {lim.ke_bound:.4g} J/m; "
                f"fastest particle {int(gid)} at x = {x:.6g} m, y = {y_shown(y):.6g} m, "
                f"|v| = {math.sqrt(max(s2, 0.0)):.4g} m/s")
         raise GuardError(GuardResult(4, step, t, int(gid), x, y_shown(y), float(totals[0]), msg))

@@ -32,7 +32,7 @@ from parsph.physics import limits
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
 from parsph.errors import Interrupted
-from .guards import run_checks
+from .guards import limits_of, run_checks
 from parsph.physics.kernels import get_kernel
 from parsph.physics.lattice_sums import lattice_sum
 from parsph.sph.neighbours import grid_for
@@ -90,6 +90,9 @@ class Simulation(CompiledSteps):
         self.rates = Rates(*self._pass_groups())
         self.collect = Collectives(comm)
         self.n_total = self.collect.total(ps.n_own)
+        fluid = ps.kind[:ps.n_own] == FLUID
+        self.limits = limits_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
+        self._checked = -1       # the last step whose checks a compiled block ran
         self.nbins = cfg.Nx
         self._sums = np.zeros((3, self.nbins))
         self._flags = np.zeros(3)
@@ -292,7 +295,7 @@ class Simulation(CompiledSteps):
         """Collective run-time checks (:mod:`parsph.simulation.guards`); on failure every rank raises GuardError."""
         t0 = self.clock()
         try:
-            run_checks(self.collect, self.ps, self.cfg, self.step, self.t)
+            run_checks(self.collect, self.ps, self.cfg, self.step, self.t, self.limits)
         finally:
             self.timers["checks"] += self.clock() - t0
 
@@ -370,7 +373,7 @@ class Simulation(CompiledSteps):
             done = self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
             if observe is not None:
                 observe(self)
-            if self.step % check_every == 0 or done:
+            if done or (self.step % check_every == 0 and self._checked != self.step):
                 self.check()
             if done or (last_step is not None and self.step >= last_step):
                 break
@@ -382,7 +385,7 @@ class Simulation(CompiledSteps):
             most = 1 if observe is not None else None
             if last_step is not None:
                 most = min(most or last_step, last_step - self.step)
-            self._advance(pending, check_every, most, stop_requested)
+            self._advance(pending, most, stop_requested)
             now = time.perf_counter()
             if self.steady is None:
                 self.steady = (self.step, self.t, now)

@@ -46,7 +46,7 @@ class Recorder:
         for c in CRITERIA:
             if now[c] and self.first[c] < 0:
                 self.first[c] = sim.step
-        bound = self.cfg.scene.max_kinetic_energy(self.cfg, r.mass, sim.t)
+        bound = self.cfg.scene.max_kinetic_energy(self.cfg, r.mass)
         ke_ratio = r.kinetic_energy / bound if math.isfinite(r.kinetic_energy) else math.inf
         self.max_theta_dev = max(self.max_theta_dev, r.theta_dev)
         self.max_ke_ratio = max(self.max_ke_ratio, ke_ratio)

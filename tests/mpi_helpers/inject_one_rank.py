@@ -7,11 +7,12 @@ raises RuntimeError("injected failure") when it is called at step STEP; the othe
 must not hang.
 
 ``nan``: on rank RANK, right after the steps that reach step STEP (the
-driver is held to end its compiled block there), the y velocity of its first owned fluid particle becomes NaN. Either the
-run-time checks (every ``checks.every`` steps, on the state before the next
-step) or, between two checks, the per-step collective flag raised by the next
-integration (non-finite positions) must then stop every rank with exit code 3
-and one message.
+driver is held to end its compiled block there, after the block's checks of
+that step), the y velocity of its first owned fluid particle becomes NaN. The
+per-step collective flag raised by the next integration (non-finite
+positions) must then stop every rank with exit code 3 and one message; on
+the Python path (``PARSPH_NATIVE_MPI=0``) the run-time checks of step STEP,
+which run after the driver returns, see it first.
 
 The exit status is that of ``parsph.cli.command.main``.
 """
@@ -42,12 +43,12 @@ def main(argv):
         # block at STEP so that the fault lands at that step exactly
         original = parsph.simulation.solver.Simulation._advance
 
-        def advance(self, pending, check_every, most=None, stop_requested=None):
+        def advance(self, pending, most=None, stop_requested=None):
             if mode == "raise" and self.step == step:
                 raise RuntimeError("injected failure")
             if self.step < step:
                 most = min(most or step, step - self.step)
-            original(self, pending, check_every, most, stop_requested)
+            original(self, pending, most, stop_requested)
             if mode == "nan" and self.step == step:
                 put_nan(self, rank, step)
 

@@ -17,7 +17,7 @@ def reference(cfg, x, t):
     return {"vy": couette_velocity(x, t, cfg.nu, cfg.L, cfg.V_w)}
 
 
-def max_kinetic_energy(cfg, fluid_mass, t):
+def max_kinetic_energy(cfg, fluid_mass):
     """Flow driven by the plates obeys a maximum principle: |v| <= |V_w|."""
     return 0.5 * fluid_mass * cfg.V_w ** 2
 

@@ -21,7 +21,7 @@ def velocity_scale(cfg):
     return abs(cfg.g[1]) * cfg.L ** 2 / (8.0 * cfg.nu) if cfg.nu > 0 else abs(cfg.g[1])
 
 
-def max_kinetic_energy(cfg, fluid_mass, t):
+def max_kinetic_energy(cfg, fluid_mass):
     """|v| stays below the steady centre-line velocity (the transient rises monotonically to it)."""
     return 0.5 * fluid_mass * velocity_scale(cfg) ** 2
 

@@ -40,7 +40,7 @@ def wall_theta(cfg, x):
     return settling_equilibrium(x, cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a, cfg.G_b, form=form)
 
 
-def max_kinetic_energy(cfg, fluid_mass, t):
+def max_kinetic_energy(cfg, fluid_mass):
     """At most all the potential energy: every particle falling the full height."""
     return fluid_mass * abs(cfg.g[0]) * cfg.L
 
