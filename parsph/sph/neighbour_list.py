@@ -32,8 +32,8 @@ class NeighbourList:
             self.pstart = np.zeros(self._cap + 1, np.int64)
         if len(self.start) < ncells + 1:
             self.start = np.zeros(ncells + 1, np.int64)
-            self.box = np.zeros((ncells, 6))
-            self.work = np.zeros((ncells, 6))
+            self.box = np.zeros((6, ncells))   # block_spread's scratch: rows of minima and maxima
+            self.work = np.zeros((6, ncells))
 
     def sort_owned(self, ps, coords, local, grid_params):
         """Cell coordinates of the owned particles from ``ps.ref`` into ``coords``, and the order of the

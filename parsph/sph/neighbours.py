@@ -37,7 +37,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, uintp
 
 from .particles import FLUID
 
@@ -282,78 +282,108 @@ def build_entries(pi, pj, npairs, need, n, offset, entry):
             fill[j] += 1
 
 
+def _window3(larger):
+    """A numba loop: d = the minimum (``larger``: maximum) of s over cells k-1, k, k+1 along one axis of
+    ``length`` cells ``stride`` apart, clipped at the axis' ends; m of them in turn give the window of
+    2m+1 cells. Unsigned indices and a select without a flag: a loop LLVM puts on vector registers."""
+    if larger:
+        @njit(cache=True, inline="always")
+        def pick(a, b):
+            return a if a > b else b
+    else:
+        @njit(cache=True, inline="always")
+        def pick(a, b):
+            return a if a < b else b
+
+    @njit(cache=True)
+    def window3(s, d, ncells, stride, length):
+        one = uintp(1)
+        st = uintp(stride)
+        ln = uintp(length)
+        last = (ln - one) * st
+        for o in range(uintp(ncells // (stride * length))):
+            b = o * st * ln
+            if stride == 1:  # along the row: the loop over k is the long one
+                d[b] = pick(s[b], s[b + one])
+                for c in range(b + one, b + last):
+                    d[c] = pick(pick(s[c - one], s[c]), s[c + one])
+                d[b + last] = pick(s[b + last - one], s[b + last])
+                continue
+            for t in range(b, b + st):
+                d[t] = pick(s[t], s[t + st])
+            for k in range(one, ln - one):
+                c0 = b + k * st
+                for c in range(c0, c0 + st):
+                    d[c] = pick(pick(s[c - st], s[c]), s[c + st])
+            for t in range(b + last, b + last + st):
+                d[t] = pick(s[t - st], s[t])
+    return window3
+
+
+_min3 = _window3(False)
+_max3 = _window3(True)
+
+
 @njit(cache=True)
 def block_spread(disp, cells, local, box, work):
     """The largest diagonal of the displacement box of any block of (2M+1)^d cells centred in ``local``'s
     centre range, for the particles sorted into ``cells``.
 
-    ``box`` and ``work`` ((ncells, 6)) are scratch space: columns 0..dim-1
+    ``box`` and ``work`` ((6, ncells)) are scratch space: rows 0..dim-1
     hold the minima, 3..3+dim-1 the maxima. Empty cells count as
     displacement 0. Blocks are clipped at the local grid's edges; centres
     run over ``centre_lo[d] .. centre_hi[d]`` (local cells whose
-    (2M+1)-wide neighbourhood is complete on this rank). A non-finite
-    displacement makes the result infinite.
+    (2M+1)-wide neighbourhood is complete on this rank). The window is M
+    windows of 3 cells along each axis in turn (min and max are exact, so
+    any grouping gives the same numbers). An infinite displacement makes
+    the result infinite; a NaN one is not seen here (the step's non-finite
+    flag stops the run first).
     """
     n, cell = cells.n, cells.cell
     size, centre_lo, centre_hi = local.size, local.centre_lo, local.centre_hi
-    m = 2  # CELLS_PER_CUTOFF
     dim = disp.shape[1]
     nx, ny, nz = size[0], size[1], size[2]
-    ncells = nx * ny * nz
-    for c in range(ncells):
-        for q in range(dim):
-            box[c, q] = np.inf
-            box[c, 3 + q] = -np.inf
-    for i in range(n):
-        c = cell[i]
+    ncells = uintp(nx * ny * nz)
+    for q in range(dim):
+        box[q, :ncells] = np.inf
+        box[3 + q, :ncells] = -np.inf
+    for i in range(uintp(n)):
+        c = uintp(cell[i])
         for q in range(dim):
             v = disp[i, q]
-            b = box[c, q]
-            box[c, q] = v if v < b else b
-            b = box[c, 3 + q]
-            box[c, 3 + q] = v if v > b else b
+            b = box[q, c]
+            box[q, c] = v if v < b else b
+            b = box[3 + q, c]
+            box[3 + q, c] = v if v > b else b
+    lo0 = box[0]
+    hi0 = box[3]
     for c in range(ncells):
-        if box[c, 0] > box[c, 3]:  # empty cell: displacement 0
+        if lo0[c] > hi0[c]:  # empty cell: displacement 0
             for q in range(dim):
-                box[c, q] = 0.0
-                box[c, 3 + q] = 0.0
-    # separable window min/max along x, y, z in turn (src -> dst)
+                box[q, c] = 0.0
+                box[3 + q, c] = 0.0
     src = box
     dst = work
     stride = 1
     for axis in range(3):
         length = size[axis]
         if length > 1:
-            outer = ncells // (stride * length)
-            for o in range(outer):
-                for k in range(length):
-                    base = o * stride * length + k * stride
-                    lo = max(k - m, 0) - k
-                    hi = min(k + m, length - 1) - k
-                    for t in range(stride):
-                        c = base + t
-                        for q in range(dim):
-                            mn = src[c + lo * stride, q]
-                            mx = src[c + lo * stride, 3 + q]
-                            for e in range(lo + 1, hi + 1):
-                                v = src[c + e * stride, q]
-                                mn = v if v < mn else mn  # selects, not branches
-                                v = src[c + e * stride, 3 + q]
-                                mx = v if v > mx else mx
-                            dst[c, q] = mn
-                            dst[c, 3 + q] = mx
-            src, dst = dst, src
+            for _ in range(CELLS_PER_CUTOFF):
+                for q in range(dim):
+                    _min3(src[q], dst[q], ncells, stride, length)
+                    _max3(src[3 + q], dst[3 + q], ncells, stride, length)
+                src, dst = dst, src
         stride *= length
     worst2 = 0.0
     for z in range(centre_lo[2], centre_hi[2] + 1):
         for y in range(centre_lo[1], centre_hi[1] + 1):
-            row = (z * ny + y) * nx
-            for x in range(centre_lo[0], centre_hi[0] + 1):
+            row = uintp((z * ny + y) * nx)
+            for x in range(uintp(centre_lo[0]), uintp(centre_hi[0] + 1)):
                 c = row + x
                 d2 = 0.0
                 for q in range(dim):
-                    e = src[c, 3 + q] - src[c, q]
+                    e = src[3 + q, c] - src[q, c]
                     d2 += e * e
-                if not d2 <= worst2:  # also NaN: the worst
+                if not d2 <= worst2:  # also NaN (inf - inf): the worst
                     worst2 = d2 if d2 == d2 else np.inf
     return math.sqrt(worst2)
