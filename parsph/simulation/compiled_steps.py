@@ -54,15 +54,16 @@ class CompiledSteps:
             motion = Motion(ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self._no_state,
                             ps.vel0 if mid else self._no_state)
             modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
+            self._block_modes = modes
             self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
                                 N.local, N.box, N.work, R.consts, R.switches,
-                                R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, modes, self._ctl,
-                                self._ictl, self._timers_block, self._scratch)
+                                R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, modes,
+                                self._ctl, self._ictl, self._timers_block, self._scratch)
             self._block_fn = None
         if self._block_fn is None:
             # the arguments' types are those of the first build with these modes (every array is made anew
             # alike, C-contiguous, at each build): their kinds are read once per modes, not at every build
-            modes = self._block_args[13]
+            modes = self._block_modes
             fn = self._block_versions.get(modes)
             if fn is None:
                 fn = self._block_versions.get(kinds(self._block_args))

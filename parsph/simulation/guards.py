@@ -118,21 +118,6 @@ class GuardResult:
     message: str
 
 
-def _per_particle(pos, vel, theta, kind, cfg, acc=None, theta_ref=None):
-    """Per particle: fluid; finite (position, velocity and, where given, acceleration); the depth
-    beyond a wall plane [m] (-inf inside, for the others and without walls); |theta - theta_ref|
-    (theta_ref: theta_0, or one per particle; 0 for the others)."""
-    fluid = kind == FLUID
-    finite = np.isfinite(pos).all(axis=1) & np.isfinite(vel).all(axis=1)
-    if acc is not None:
-        finite &= np.isfinite(acc).all(axis=1)
-    depth = np.where(fluid & finite, np.maximum(-pos[:, 0], pos[:, 0] - cfg.L), -np.inf) \
-        if cfg.scene.walls else np.full(len(kind), -np.inf)
-    ref = cfg.theta0 if theta_ref is None else theta_ref
-    dev = np.where(fluid & finite, np.abs(theta - ref), 0.0)
-    return fluid, finite, depth, dev
-
-
 @dataclass(frozen=True)
 class Reading:
     """The checks' criteria over one rank's fluid particles now (no communication)."""
@@ -159,7 +144,11 @@ def read(fields, cfg, theta_ref=None, acc=None):
     fl = kind == FLUID
     ref = cfg.theta0 if theta_ref is None else theta_ref(np.nan_to_num(pos[:, 0]))
     with np.errstate(all="ignore"):
-        _, finite, depth, _ = _per_particle(pos, vel, theta, kind, cfg, acc)
+        finite = np.isfinite(pos).all(axis=1) & np.isfinite(vel).all(axis=1)
+        if acc is not None:
+            finite &= np.isfinite(acc).all(axis=1)
+        depth = np.where(fl & finite, np.maximum(-pos[:, 0], pos[:, 0] - cfg.L), -np.inf) \
+            if cfg.scene.walls else np.full(len(kind), -np.inf)   # beyond a wall plane [m]
         th = theta[fl]
         rel = np.abs(th - (ref if np.ndim(ref) == 0 else ref[fl])) / (ref if np.ndim(ref) == 0 else ref[fl])
         dev = math.inf if not np.isfinite(th).all() else float(rel.max(initial=0.0))

@@ -351,7 +351,7 @@ class Simulation(CompiledSteps):
         pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
         if self.step > 0:  # restart: the restart state itself was output already
             pending = [t for t in pending if not self._output_due(t)]
-        check_every = cfg.get("checks.every")
+        check_every = self.limits.every
         interval = cfg.get("output.progress_interval")
         t_start = last = time.perf_counter()
         step0, tsim0 = self.step, self.t
