@@ -19,6 +19,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.parallel import native_mpi
+from parsph.physics import limits
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
 

@@ -19,8 +19,9 @@ when something happens there:
   steps once the step's rates are computed, failed on some rank (Python runs
   them again to name the particle and raises);
 - ``STOP``: a signal's stop, agreed at a sync in this block (rates computed);
-- ``NEED_LIMIT``: (auto dt) the largest theta left the bucket whose linear
-  limit Python computed; nothing of the step is done yet;
+- ``NEED_LIMIT``: (auto dt) the largest theta is in a bucket whose linear
+  limit Python has not computed yet (``Rule.linear``); nothing of the step
+  is done yet;
 - ``MPI_ERROR``: an MPI call failed.
 
 Every decision is taken from all-reduced values or from the step count, so
@@ -44,8 +45,8 @@ EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = 
 CODES = ("event", "rebuild", "rebuild at the midpoint", "bad state", "bad state at the midpoint", "stop",
          "new limit", "MPI error", "check failed")
 # ctl (float64): the block's clock and its inputs from Python
-T, DT, T_TARGET, LIN_THETA, LIN_DT, STOP_IN, FORCE_IN, STOP_OUT, LAND, EVAL_FIRST = range(10)
-N_CTL = 10
+T, DT, T_TARGET, STOP_IN, FORCE_IN, STOP_OUT, LAND, EVAL_FIRST = range(8)
+N_CTL = 8
 # ictl (int64)
 STEP, STOP_STEP, STEPS_DONE, CHECKED = range(4)  # CHECKED: the last step the block checked
 N_ICTL = 4
@@ -72,6 +73,9 @@ class Rule(NamedTuple):
     theta0: float      # the floor of the largest theta (state_maxima)
     theta_step: float  # limits.THETA_STEP: the bucket of the cached linear limit
     skin: float
+    linear: np.ndarray  # the linear limit of bucket k (theta k theta_step, bucket_index); NaN until Python
+                        # computes it (a table, so that a theta going back and forth between buckets costs
+                        # one return to Python per bucket, not one per crossing)
 
 
 class Modes(NamedTuple):
@@ -138,9 +142,17 @@ def bucket(theta_max, theta_step):
 
 
 @njit(cache=True)
+def bucket_index(theta_max, theta_step, nbuckets):
+    """The index k of theta_max's bucket in ``Rule.linear`` (of ``nbuckets`` entries; the last holds
+    theta = 0.999 and above)."""
+    k = math.ceil(theta_max / theta_step - 1e-9)
+    return min(max(k, 0), nbuckets - 1)
+
+
+@njit(cache=True)
 def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all):
     """The auto rule's dt (safety x the smallest of the linear, advection and force limits), or -1 when
-    the largest theta left the bucket of ``ctl[LIN_THETA]``; -2 on an MPI error."""
+    the linear limit of the largest theta's bucket is not in ``rule.linear`` yet; -2 on an MPI error."""
     v, th, a = state_maxima(parts.vel, parts.acc, parts.theta, parts.kind, parts.n_own, rule.theta0)
     maxima[0] = v
     maxima[1] = th
@@ -148,11 +160,12 @@ def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all):
     if allreduce(plan.h, OP_MAX, maxima, maxima_all) != 0:
         return -2.0
     vmax, theta_max, amax = maxima_all[0], min(maxima_all[1], 0.999), maxima_all[2]
-    if bucket(theta_max, rule.theta_step) != ctl[LIN_THETA]:
+    linear = rule.linear[bucket_index(theta_max, rule.theta_step, len(rule.linear))]
+    if linear != linear:  # NaN: not computed yet
         return -1.0
     advection = 0.5 * rule.h / vmax if vmax > 0 else np.inf
     force = 0.25 * math.sqrt(rule.h / amax) if amax > 0 else np.inf
-    return rule.safety * min(ctl[LIN_DT], advection, force)
+    return rule.safety * min(linear, advection, force)
 
 
 @njit(cache=True)

@@ -2,7 +2,6 @@
 the blocks up to the next event, and what Python does when a block returns in the middle of a step
 (a list build, a blow-up) or needs a new linear limit (auto dt).
 """
-import math
 import time
 
 import numba
@@ -32,9 +31,9 @@ class CompiledSteps:
         self._ictl = np.zeros(block.N_ICTL, np.int64)
         self._scratch = np.zeros(block.N_SCRATCH)
         self._timers_block = np.zeros(len(block.TIMER_PHASES))
+        nbuckets = int(round(0.999 / limits.THETA_STEP)) + 1  # block.bucket: theta at most 0.999
         self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
-                          float(limits.THETA_STEP), float(self.skin))
-        self._lin = (-1.0, math.inf)  # (theta bucket, its linear limit) of the auto rule; none yet
+                          float(limits.THETA_STEP), float(self.skin), np.full(nbuckets, np.nan))
         self._block_steps = 1
         self.block_calls = 0  # returns from compiled code to Python (blocks run)
         self._block_args = None
@@ -99,7 +98,6 @@ class CompiledSteps:
         while True:
             ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, target
             ctl[block.STOP_IN], ctl[block.FORCE_IN], ctl[block.STOP_OUT] = self._stop_local, self.force_rebuild, 0.0
-            ctl[block.LIN_THETA], ctl[block.LIN_DT] = self._lin
             ictl[block.STEP], ictl[block.STOP_STEP] = self.step, stop_step
             code = self._block()(*self._block_args)
             self.block_calls += 1
@@ -151,11 +149,12 @@ class CompiledSteps:
         self._add_block_timers()
 
     def _new_limit(self):
-        """The linear limit of the bucket the agreed largest theta is in (the auto rule, Python's side)."""
+        """The linear limit of the bucket the agreed largest theta is in, into the rule's table (the auto
+        rule, Python's side)."""
         theta_max = min(float(self._scratch[10]), 0.999)
-        bucket = block.bucket(theta_max, limits.THETA_STEP)
-        lim = limits.run_limits(self.cfg, bucket, 0.0, 0.0)
-        self._lin = (bucket, min(lim.values()))
+        table = self._rule.linear
+        lim = limits.run_limits(self.cfg, block.bucket(theta_max, limits.THETA_STEP), 0.0, 0.0)
+        table[block.bucket_index(theta_max, limits.THETA_STEP, len(table))] = min(lim.values())
 
     def _add_block_timers(self):
         tb = self._timers_block
