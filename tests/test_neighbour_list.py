@@ -27,7 +27,7 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.setup.runfile import RunFile
-from parsph.sph.neighbours import CELLS_PER_CUTOFF, CellBox, CellOrder, block_spread
+from parsph.sph.neighbours import CELLS_PER_CUTOFF, CellBox, CellOrder, block_spread, build_pairs
 from parsph.sph.particles import FLUID
 from parsph.simulation.solver import Simulation
 
@@ -150,6 +150,24 @@ def test_runaway_particle_does_not_grow_the_grid():
     sim.compute_rates()
     assert int(np.prod(sim.neighbours.size)) == cells
     assert sim.neighbours.box.shape[1] <= cells
+
+
+def test_pair_count_and_a_list_too_short():
+    """The list holds exactly the unique local pairs within 2h + skin with an owned fluid member (a
+    brute force over the local particles, ghosts and images included); arrays too short for them give
+    minus that count, so that the caller grows them."""
+    cfg = config.load(ROOT / "run" / "couette_paper.toml", ["domain.Ly=0.004", "output.times=[]"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    sim.compute_rates()
+    ps, N = sim.ps, sim.neighbours
+    n = N.n
+    d = ps.ref[:n, None, :] - ps.ref[None, :n, :]
+    close = np.triu((d * d).sum(axis=-1) < N.grid.cutoff ** 2, k=1)
+    need = N.need[:n]
+    want = int((close & (need[:, None] | need[None, :])).sum())
+    assert N.npairs == want > 1000
+    short = (np.zeros(n + 1, np.int64), np.zeros(100, np.int32), np.zeros(100, np.int32))
+    assert build_pairs(ps.ref, N.need, N.cells, N.local, N.grid.cutoff, *short) == -want
 
 
 # ---- the validity test (neighbours.block_spread) against brute force --------------------------------------

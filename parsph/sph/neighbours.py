@@ -184,8 +184,9 @@ def build_pairs(pos, need, cells, local, cutoff, pstart, pi, pj):
     m = 2  # CELLS_PER_CUTOFF
     dim = pos.shape[1]
     cut2 = cutoff * cutoff
-    cap = pi.shape[0]
-    npairs = 0
+    cap = uintp(pi.shape[0])
+    one = uintp(1)
+    npairs = uintp(0)  # unsigned, as the indices below: no test for a negative index in the loop
     nx, ny, nz = size[0], size[1], size[2]
     # positions and needs in sorted order: the candidates of a cell row are contiguous in memory
     xs = np.empty(n)
@@ -215,7 +216,9 @@ def build_pairs(pos, need, cells, local, cutoff, pstart, pi, pj):
                 row = (z * ny + y) * nx
                 lo = max(start[row + max(cx - m, 0)], a + 1)
                 hi = start[row + min(cx + m, nx - 1) + 1]
-                for b in range(lo, hi):
+                if hi <= lo:  # (an unsigned range must not start past its end)
+                    continue
+                for b in range(uintp(lo), uintp(hi)):
                     dx = xi - xs[b]
                     dy = yi - ys[b]
                     r2 = dx * dx + dy * dy
@@ -223,12 +226,13 @@ def build_pairs(pos, need, cells, local, cutoff, pstart, pi, pj):
                         dz = zi - zs[b]
                         r2 += dz * dz
                     # branch-free compaction: always store, advance only for a pair (about half the candidates)
-                    k = npairs if npairs < cap else cap - 1
+                    k = npairs if npairs < cap else cap - one
                     pi[k] = i
                     pj[k] = order[b]
-                    npairs += (r2 < cut2) & (need_i | ns[b])
+                    npairs += uintp((r2 < cut2) & (need_i | ns[b]))
     pstart[n] = min(npairs, cap)
-    return npairs if npairs < cap else -npairs
+    count = np.int64(npairs)
+    return count if npairs < cap else -count
 
 
 @njit(cache=True)
