@@ -100,6 +100,19 @@ def test_auto_dt_lands_on_output_times():
     assert steps == sorted(set(steps)) and sim.step == steps[-1]
 
 
+@needs_native
+def test_auto_rule_table_holds_the_linear_limits():
+    """The blocks' table of linear limits per theta bucket holds, where filled, the limit of
+    parsph.physics.limits at the bucket's theta (k THETA_STEP, at most 0.999), and the run filled one."""
+    sim, _, _ = run_case("auto", MPI.COMM_SELF, native=None)
+    table = sim._rule.linear
+    known = np.flatnonzero(~np.isnan(table))
+    assert len(known) >= 1
+    for k in known:
+        theta = min(k * limits.THETA_STEP, 0.999)
+        assert table[k] == min(limits.run_limits(sim.cfg, theta, 0.0, 0.0).values()), k
+
+
 def test_fallback_is_named():
     """native=False takes the mpi4py path and says so."""
     cfg = config.load(RUN / "couette_paper.toml", [SHORT, "output.times=[]", "output.t_end=0.0002"])
