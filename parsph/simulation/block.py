@@ -135,16 +135,9 @@ def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
 
 
 @njit(cache=True)
-def bucket(theta_max, theta_step):
-    """The theta at which the auto rule takes the linear limit: theta_max rounded up to a multiple of
-    theta_step, at most 0.999 (parsph.physics.limits.limits)."""
-    return min(math.ceil(theta_max / theta_step - 1e-9) * theta_step, 0.999)
-
-
-@njit(cache=True)
 def bucket_index(theta_max, theta_step, nbuckets):
-    """The index k of theta_max's bucket in ``Rule.linear`` (of ``nbuckets`` entries; the last holds
-    theta = 0.999 and above)."""
+    """The index k of theta_max's bucket in ``Rule.linear`` (of ``nbuckets`` entries): theta_max rounded up
+    to k theta_step, as parsph.physics.limits.limits rounds it; the last entry holds theta = 0.999 and above."""
     k = math.ceil(theta_max / theta_step - 1e-9)
     return min(max(k, 0), nbuckets - 1)
 

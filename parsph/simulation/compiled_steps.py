@@ -31,7 +31,7 @@ class CompiledSteps:
         self._ictl = np.zeros(block.N_ICTL, np.int64)
         self._scratch = np.zeros(block.N_SCRATCH)
         self._timers_block = np.zeros(len(block.TIMER_PHASES))
-        nbuckets = int(round(0.999 / limits.THETA_STEP)) + 1  # block.bucket: theta at most 0.999
+        nbuckets = int(round(0.999 / limits.THETA_STEP)) + 1  # limits.limits: theta at most 0.999
         self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
                           float(limits.THETA_STEP), float(self.skin), np.full(nbuckets, np.nan))
         self._block_steps = 1
@@ -153,7 +153,7 @@ class CompiledSteps:
         rule, Python's side)."""
         theta_max = min(float(self._scratch[10]), 0.999)
         table = self._rule.linear
-        lim = limits.run_limits(self.cfg, block.bucket(theta_max, limits.THETA_STEP), 0.0, 0.0)
+        lim = limits.run_limits(self.cfg, theta_max, 0.0, 0.0)  # limits rounds theta up to its bucket
         table[block.bucket_index(theta_max, limits.THETA_STEP, len(table))] = min(lim.values())
 
     def _add_block_timers(self):
