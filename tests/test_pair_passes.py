@@ -77,11 +77,13 @@ def test_serial_passes_equal_the_scalar_loops(case):
 
 @pytest.mark.parametrize("block", [1, 5, 64])
 def test_any_block_gives_the_same_sums(case, block):
-    """Blocks shorter than a particle's pairs: its sum goes on over several blocks, in the same order."""
+    """Blocks shorter than a particle's pairs: its sum goes on over several blocks, in the same order, and so
+    does its part of the compact list the momentum pass walks."""
     name, sim, args, ref, _ = case
     equations.density_blocks(*args, block)
+    equations.momentum_serial(*args)
     new = results(args)
-    for key in ("rho_sum", "fp"):
+    for key in ("rho_sum", "fp", "acc"):
         assert np.array_equal(ref[key], new[key]), f"{name}, block {block}: {key} differs"
 
 
@@ -113,6 +115,43 @@ def test_density_against_brute_force():
     brute = (w * mass[None, :]).sum(axis=1)[need]
     assert need.sum() > 100
     np.testing.assert_allclose(lst.rho_sum[:n][need], brute, rtol=1e-12)
+
+
+def test_compact_list_holds_the_pairs_within_2h(case):
+    """The compact list the density pass writes for the momentum pass: each place's listed pairs closer than
+    2h (distances by numpy from the positions), in pair order, with the kernel's (dW/dr)/r of their distance;
+    none is missing and none beyond 2h is kept (pairs within 1e-9 h of 2h may go either way)."""
+    _, sim, args, _, _ = case
+    lst, parts, c = args[0], args[1], args[2]
+    equations.density_serial(*args)
+    kernel = get_kernel(sim.cfg.kernel, sim.cfg.dim)
+    support = kernel.support / c.inv_h
+    n, npairs = lst.n, lst.npairs
+    pi, pj = lst.pi[:npairs].astype(np.int64), lst.pj[:npairs].astype(np.int64)
+    pos = parts.pos
+    r = np.sqrt(((pos[pi] - pos[pj]) ** 2).sum(axis=1))
+    place = np.repeat(np.arange(n), np.diff(lst.pstart[:n + 1]))  # the place of each listed pair
+    total = 0
+    for a in range(n):
+        rows = np.flatnonzero(place == a) if a < 64 or a % 97 == 0 else None
+        lo, hi = lst.cstart[a], lst.cstart[a + 1]
+        assert hi >= lo
+        if rows is None:
+            total += hi - lo
+            continue
+        within, edge = r[rows] < support, np.abs(r[rows] - support) < 1e-9 * support
+        kept = set(lst.cj[lo:hi].tolist())
+        assert set(pj[rows][within & ~edge].tolist()) <= kept
+        assert kept <= set(pj[rows][within | edge].tolist())
+        order = [int(np.flatnonzero(pj[rows] == j)[0]) for j in lst.cj[lo:hi]]
+        assert order == sorted(order), f"place {a}: the compact pairs are not in pair order"
+        f = lst.cf[lo:hi]
+        rk = r[rows][order]
+        want = np.array([kernel.dwdr(x, c.inv_h, c.norm) / x for x in rk])
+        np.testing.assert_allclose(f, want, rtol=1e-10)
+        total += hi - lo
+    assert lst.cstart[0] == 0 and lst.cstart[n] == total == np.count_nonzero(lst.fp[:npairs])
+    assert 0.5 * npairs < total < npairs  # the skin holds some of the listed pairs
 
 
 @njit(cache=True)

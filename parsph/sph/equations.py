@@ -47,9 +47,13 @@ the density pass takes the pairs in blocks of :data:`BLOCK`: a scalar loop
 gathers |r_ij|^2 (LLVM vectorises no loop that loads through an index and
 stores, as it cannot rule out that the two overlap), a loop over contiguous
 arrays evaluates the branch-free kernel on vector registers (vsqrtpd,
-vdivpd on ymm), and a scalar loop adds the sums in pair order. The
-momentum pass stays one scalar loop per particle: its work is the
-neighbour's fields, loaded through an index, and the scatter, and split into
+vdivpd on ymm or zmm), and a scalar loop adds the sums in pair order and
+copies the pairs within 2h (j and (dW/dr)/r, about three quarters of the
+list) into a compact list, without a branch. The momentum pass walks that
+list: one scalar loop per particle with no test of a pair's distance (the
+test of the full list, taken or not at random in a disordered state, was
+mispredicted often enough to cost a third of the pass). Its work is the
+neighbour's fields, loaded through an index, and the scatter; split into
 gather, vector and scatter loops it measured slower. All loops index with
 unsigned integers (numba tests a signed index for a negative value) and
 use numpy's error model (no test for a zero divisor). The operations and
@@ -102,7 +106,8 @@ def _kernel_values(kid, inv_h, norm, r2, w, f, m):
 
 @njit(cache=True)
 def density_serial(lst, parts, c, sw):
-    """Eq. (3) into ``lst.rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``lst.fp``.
+    """Eq. (3) into ``lst.rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``lst.fp``, and the
+    pairs within 2h into the compact list ``lst.cstart``, ``cj``, ``cf`` that :func:`momentum_serial` walks.
 
     Particle order[a]'s pairs are pstart[a] .. pstart[a+1]-1 (its later
     neighbours). Its sum starts with its own term, gets the pairs of earlier
@@ -114,14 +119,17 @@ def density_serial(lst, parts, c, sw):
 @njit(cache=True, error_model="numpy")
 def density_blocks(lst, parts, c, sw, block):
     """:func:`density_serial` with the pairs taken ``block`` at a time: their distances (gathers), W and
-    (dW/dr)/r (a vector loop), then each particle's sum and the scatter to its neighbours in pair order; a
-    particle's pairs may go on over the next blocks. Any block gives the same numbers bit for bit."""
+    (dW/dr)/r (a vector loop), then each particle's sum and the scatter to its neighbours in pair order, with
+    the pairs of nonzero (dW/dr)/r copied to the compact list (always stored, the count advanced only for
+    them); a particle's pairs may go on over the next blocks. Any block gives the same numbers bit for bit."""
     order, pstart, pi, pj, n, fp, rho_sum = lst.order, lst.pstart, lst.pi, lst.pj, lst.n, lst.fp, lst.rho_sum
+    cstart, cj, cf = lst.cstart, lst.cj, lst.cf
     pos, mass = parts.pos, parts.mass
     kid, inv_h, norm, w0 = c.kid, c.inv_h, c.norm, c.w0
     three_d = sw.three_d
     for k in range(n):
         rho_sum[k] = mass[k] * w0
+    cnt = uintp(0)
     wb = np.empty(block)
     npairs = uintp(pstart[n])
     step = uintp(block)
@@ -138,18 +146,26 @@ def density_blocks(lst, parts, c, sw, block):
                 break
             row_end = uintp(pstart[a + 1])
             p1 = min(row_end, hi)
+            if p0 == uintp(pstart[a]):
+                cstart[a] = cnt
             i = uintp(order[a])
             mi = mass[i]
             s = rho_sum[i]
             for p in range(p0 - lo, p1 - lo):
-                j = uintp(pjb[p])
+                j = pjb[p]
                 w = wb[p]
-                s += mass[j] * w
-                rho_sum[j] += mi * w
+                s += mass[uintp(j)] * w
+                rho_sum[uintp(j)] += mi * w
+                f = fpb[p]
+                cj[cnt] = j  # the pairs within 2h, compacted without a branch
+                cf[cnt] = f
+                cnt += uintp(f != 0.0)
             rho_sum[i] = s
             if row_end > hi:
                 break  # its pairs go on in the next block
             a += 1
+    for b in range(a, n + 1):  # the places after the last pair
+        cstart[b] = cnt
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
@@ -278,11 +294,13 @@ def momentum_serial(lst, parts, c, sw):
 
     Pair (i, j): P (pressure) and V (viscous) are symmetric; i gets
     m_j (P r_ij + mu_i beta V v_ij), j the exact negative of m_i (P r_ij +
-    mu_j beta V v_ij). Indices are unsigned (no test for negative ones) and
+    mu_j beta V v_ij). The pairs are those within 2h, from the compact list
+    :func:`density_serial` wrote (the pairs beyond add nothing and are
+    skipped without a test). Indices are unsigned (no test for negative ones) and
     the error model is numpy's (no test for a zero divisor, which beta's
     branch excludes): the loop is scalar, and short for it.
     """
-    order, pstart, pj, n, fp, fields, need = lst.order, lst.pstart, lst.pj, lst.n, lst.fp, lst.fields, lst.need
+    order, cstart, cj, cf, n, fields, need = lst.order, lst.cstart, lst.cj, lst.cf, lst.n, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
     rho_s, G_b, k_visc, L, beta_max, g = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g
     pressure, viscosity, symmetric_mu, walls, consistent, three_d = sw
@@ -292,8 +310,8 @@ def momentum_serial(lst, parts, c, sw):
         for d in range(dim):
             acc[k, d] = 0.0
     for a in range(n):
-        lo = uintp(pstart[a])
-        hi = uintp(pstart[a + 1])
+        lo = uintp(cstart[a])
+        hi = uintp(cstart[a + 1])
         if lo == hi:
             continue
         i = uintp(order[a])
@@ -314,10 +332,8 @@ def momentum_serial(lst, parts, c, sw):
         ay = acc[i, 1]
         az = acc[i, 2] if len(three_d) else 0.0
         for p in range(lo, hi):
-            f = fp[p]
-            if f == 0.0:  # beyond 2h: the pair adds nothing
-                continue
-            j = uintp(pj[p])
+            f = cf[p]
+            j = uintp(cj[p])
             th_j = fields[j, THETA]
             P = 0.0
             if len(pressure):

@@ -60,6 +60,9 @@ class PairList(NamedTuple):
     fp: np.ndarray       # (dW/dr)/r per pair: the density pass writes it, the momentum pass reads it
     rho_sum: np.ndarray  # Eq. (3) per particle
     fields: np.ndarray   # per particle the row a pair reads: columns VX .. PRESS
+    cstart: np.ndarray   # the pairs within 2h of place a: cstart[a] .. cstart[a+1]-1 of cj, cf (density_serial)
+    cj: np.ndarray       # their second members, in pair order
+    cf: np.ndarray       # their (dW/dr)/r
 
 
 class Gather(NamedTuple):

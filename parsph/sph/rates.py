@@ -26,6 +26,9 @@ class Rates:
         self.consts = consts
         self.switches = switches
         self.fp = np.zeros(0)
+        self.cj = np.zeros(0, np.uint32)
+        self.cf = np.zeros(0)
+        self.cstart = np.zeros(0, np.int64)
         self.list = None      # pass_data.PairList of the attached build
         self.neighbours = None
         self._gather = None   # pass_data.Gather, made when threads are in use
@@ -41,9 +44,13 @@ class Rates:
             self.fields = np.zeros((self._cap, 8))
         if len(self.fp) < nlist.npairs:
             self.fp = np.zeros(len(nlist.pi))
+            self.cj = np.zeros(len(nlist.pi), np.uint32)
+            self.cf = np.zeros(len(nlist.pi))
+        if len(self.cstart) < n + 1:
+            self.cstart = np.zeros(self._cap + 1, np.int64)
         self.neighbours = nlist
         self.list = pass_data.PairList(nlist.order, nlist.pstart, nlist.pi, nlist.pj, nlist.need, n, nlist.npairs,
-                                       self.fp, self.rho_sum, self.fields)
+                                       self.fp, self.rho_sum, self.fields, self.cstart, self.cj, self.cf)
         self._gather = None
         self._calls.forget()
 
