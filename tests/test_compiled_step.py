@@ -140,7 +140,7 @@ def test_compiled_on_several_ranks(name):
 @needs_native
 @pytest.mark.mpi(min_size=2)
 def test_bindings_against_mpi4py():
-    """exchange_rows and allreduce on a duplicated communicator: what mpi4py's calls deliver."""
+    """exchange_rows, allreduce and iallreduce + wait on a duplicated communicator: what mpi4py's calls deliver."""
     comm = MPI.COMM_WORLD.Dup()
     try:
         r, P = comm.rank, comm.size
@@ -164,6 +164,11 @@ def test_bindings_against_mpi4py():
             want, out = np.zeros(3), np.zeros(3)
             comm.Allreduce(values, want, op=mpi_op)
             checks[label] = native_mpi.allreduce(h, op, values, out) == 0 and np.array_equal(out, want)
+            req, stat = native_mpi.requests(1)
+            started = np.full(3, np.nan)
+            err = native_mpi.iallreduce(h, op, values, started, req)
+            err |= native_mpi.wait(req, stat)
+            checks[label + ", started then waited for"] = err == 0 and np.array_equal(started, want)
         failed = comm.allgather(sorted(k for k, ok in checks.items() if not ok))  # every rank asserts alike
         assert not any(failed), failed
     finally:

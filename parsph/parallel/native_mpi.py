@@ -31,6 +31,9 @@ mpi_irecv = types.ExternalFunction("MPI_Irecv", _i32(_ip, _i32, _ip, _i32, _i32,
 mpi_waitall = types.ExternalFunction("MPI_Waitall", _i32(_i32, _ip, _ip))
 # int MPI_Allreduce(const void *send, void *recv, int count, MPI_Datatype, MPI_Op, MPI_Comm)
 mpi_allreduce = types.ExternalFunction("MPI_Allreduce", _i32(_ip, _ip, _i32, _ip, _ip, _ip))
+# int MPI_Iallreduce(const void *send, void *recv, int count, MPI_Datatype, MPI_Op, MPI_Comm, MPI_Request *)
+mpi_iallreduce = types.ExternalFunction("MPI_Iallreduce", _i32(_ip, _ip, _i32, _ip, _ip, _ip, _ip))
+mpi_wait = types.ExternalFunction("MPI_Wait", _i32(_ip, _ip))
 mpi_wtime = types.ExternalFunction("MPI_Wtime", _f64())
 
 # the handles array of a communicator (Handles.h): its columns
@@ -116,6 +119,20 @@ def exchange_rows(h, left, right, tag_up, tag_down, up, n_up, down, n_down, belo
 def allreduce(h, op, values, out):
     """out = the element-wise reduction (h[OP_MAX] or h[OP_SUM]) of the float64 ``values`` over the ranks."""
     return mpi_allreduce(values.ctypes.data, out.ctypes.data, values.size, h[DOUBLE], h[op], h[COMM])
+
+
+@njit(cache=True)
+def iallreduce(h, op, values, out, req):
+    """:func:`allreduce` started, not waited for: ``values`` and ``out`` must stay untouched until
+    :func:`wait` on ``req`` (one request of :func:`requests`) returns."""
+    return mpi_iallreduce(values.ctypes.data, out.ctypes.data, values.size, h[DOUBLE], h[op], h[COMM],
+                          req.ctypes.data)
+
+
+@njit(cache=True)
+def wait(req, stat):
+    """Wait for the one request in ``req`` (its status into ``stat``); returns MPI's error code."""
+    return mpi_wait(req.ctypes.data, stat.ctypes.data)
 
 
 @njit(cache=True)

@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from parsph.parallel import native_halo
-from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, wtime
+from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
 from parsph.sph import equations
 from parsph.sph import integrators
 from parsph.sph.neighbours import block_spread
@@ -86,9 +86,10 @@ class Modes(NamedTuple):
 
 
 @njit(cache=True)
-def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers):
-    """Displacements, the ghosts' refresh, the list's validity test and one all-reduce of (bad, stop,
-    rebuild); returns MPI's error code. ``flags_all`` holds the agreed values."""
+def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers, req):
+    """Displacements, the ghosts' refresh, the list's validity test, and the all-reduce of (bad, stop,
+    rebuild) started: ``flags_all`` holds the agreed values once ``native_mpi.wait(req)`` returned.
+    Returns MPI's error code."""
     t0 = wtime()
     pos, ref, disp = parts.pos, motion.ref, motion.disp
     dim = pos.shape[1]
@@ -102,21 +103,29 @@ def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, b
     flags[2] = 1.0 if (ctl[FORCE_IN] != 0.0 or not spread < skin) else 0.0
     ctl[STOP_IN] = 0.0
     ctl[FORCE_IN] = 0.0
-    err |= allreduce(plan.h, OP_MAX, flags, flags_all)
+    err |= iallreduce(plan.h, OP_MAX, flags, flags_all, req)
     timers[SYNC] += wtime() - t0
     return err
 
 
 @njit(cache=True)
-def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
-    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
+def _density(lst, c, sw, parts, gather, modes):
+    """Eq. (3) into the list's sums (``lst.rho_sum``, the pairs' (dW/dr)/r): the particles' fields are
+    not touched, so that the pass can run while the sync's all-reduce is in flight."""
+    if len(modes.threaded):
+        equations.density_threaded(lst, parts, c, sw, gather)
+    else:
+        equations.density_serial(lst, parts, c, sw)
+
+
+@njit(cache=True)
+def _after_density(plan, lst, parts, c, sw, gather, modes, timers):
+    """The owned particles' rho and factors, the ghosts' rho (one round), their factors, Eq. (5)."""
     t0 = wtime()
     n, n_own = lst.n, parts.n_own
     if len(modes.threaded):
-        equations.density_threaded(lst, parts, c, sw, gather)
         equations.particle_factors(lst, parts, c, sw, 0, n_own)
     else:
-        equations.density_serial(lst, parts, c, sw)
         equations.particle_factors_serial(lst, parts, c, sw, 0, n_own)
     t1 = wtime()
     err = native_halo.refresh(plan, parts.rho, n_own)
@@ -132,6 +141,15 @@ def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
     timers[HALO] += t2 - t1
     timers[FORCES] += t3 - t2
     return err
+
+
+@njit(cache=True)
+def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
+    t0 = wtime()
+    _density(lst, c, sw, parts, gather, modes)
+    timers[DENSITY] += wtime() - t0
+    return _after_density(plan, lst, parts, c, sw, gather, modes, timers)
 
 
 @njit(cache=True)
@@ -176,11 +194,23 @@ def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
 
 @njit(cache=True)
 def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl, flags, flags_all,
-                   bad, skin, timers, mid):
+                   bad, skin, timers, mid, req, stat):
     """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
     the block's code (``mid``: at the midpoint integrator's middle evaluation). A stop agreed here is
-    kept in ctl[STOP_OUT]."""
-    if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers):
+    kept in ctl[STOP_OUT].
+
+    Eq. (3) runs while the flags' all-reduce is in flight (it writes only the list's sums, which a
+    rebuild or a bad state discards): a rank that reaches the all-reduce first does its density pass
+    instead of waiting there, and the ranks meet once, at the ghosts' rho, where they met twice."""
+    if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers, req):
+        return MPI_ERROR
+    t0 = wtime()
+    _density(lst, c, sw, parts, gather, modes)
+    t1 = wtime()
+    err = wait(req, stat)
+    timers[DENSITY] += t1 - t0
+    timers[SYNC] += wtime() - t1
+    if err:
         return MPI_ERROR
     if flags_all[0] != 0.0:
         return BAD_MID if mid else BAD
@@ -188,21 +218,21 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
         ctl[STOP_OUT] = flags_all[1]
     if flags_all[2] != 0.0:
         return REBUILD_MID if mid else REBUILD
-    if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+    if _after_density(plan, lst, parts, c, sw, gather, modes, timers):
         return MPI_ERROR
     return -1
 
 
 @njit(cache=True)
 def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, lim, modes, ctl, ictl,
-              timers, scratch):
+              timers, scratch, req, stat):
     """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
 
     ``ctl``, ``ictl`` hold the clock (t, dt, step) and the inputs (target
     time, the linear limit's bucket, stop and forced-rebuild flags, the step
     to stop at, whether to evaluate the rates of the state first); ``lim`` the checks' limits
     (guards.Limits); ``timers`` gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the
-    all-reduces' buffers.
+    all-reduces' buffers; ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
     """
     flags, flags_all = scratch[0:3], scratch[3:6]
     maxima, maxima_all = scratch[6:9], scratch[9:12]
@@ -247,7 +277,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                                                           motion.jump, rule.h)
             timers[INTEGRATE] += wtime() - t0
             code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
-                                  flags, flags_all, bad, rule.skin, timers, True)
+                                  flags, flags_all, bad, rule.skin, timers, True, req, stat)
             if code >= 0:
                 return code
             t0 = wtime()
@@ -270,7 +300,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         timers[INTEGRATE] += wtime() - t0
         # -- sync, and the rates of the new state
         code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
-                              flags, flags_all, bad, rule.skin, timers, False)
+                              flags, flags_all, bad, rule.skin, timers, False, req, stat)
         if code >= 0:
             return code
         if ictl[STEP] % lim.every == 0:  # the run-time checks, before a stop as Python's loop orders them

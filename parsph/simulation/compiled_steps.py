@@ -31,6 +31,7 @@ class CompiledSteps:
         self._ictl = np.zeros(block.N_ICTL, np.int64)
         self._scratch = np.zeros(block.N_SCRATCH)
         self._timers_block = np.zeros(len(block.TIMER_PHASES))
+        self._req, self._stat = native_mpi.requests(1)  # the sync's all-reduce in flight
         nbuckets = int(round(0.999 / limits.THETA_STEP)) + 1  # limits.limits: theta at most 0.999
         self._rule = Rule(float(cfg.dt), float(cfg.get("numerics.dt_safety")), float(cfg.h), float(cfg.theta0),
                           float(limits.THETA_STEP), float(self.skin), np.full(nbuckets, np.nan))
@@ -57,7 +58,8 @@ class CompiledSteps:
             self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
                                 N.local, N.box, N.work, R.consts, R.switches,
                                 R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, modes,
-                                self._ctl, self._ictl, self._timers_block, self._scratch)
+                                self._ctl, self._ictl, self._timers_block, self._scratch, self._req,
+                                self._stat)
             self._block_fn = None
         if self._block_fn is None:
             # the arguments' types are those of the first build with these modes (every array is made anew
