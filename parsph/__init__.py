@@ -1,7 +1,10 @@
 """parsph: SPH for the solid phase of granular two-fluid models."""
 __version__ = "0.1.0"
 
+from .compile_settings import apply as _compile_settings
 from .numba_cache import keep_in_step as _keep_in_step
+
+_compile_settings()  # before any loop compiles
 
 try:
     _keep_in_step()  # numba's cached loops were built from these sources, or go
