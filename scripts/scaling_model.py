@@ -20,7 +20,8 @@ Per rank at P (the busiest rank: the most owned particles and ghosts):
     t_0 = a_p + a_n + t_x
     Pi    = p own + X                     (list pairs: p per particle, X crossing one slab boundary)
     n_loc = own + G + I                   (owned, ghosts, periodic images)
-    T_msg = 2 alpha + 8 (3 d + 1) G / B + ceil(log2 P) alpha_ar          (P >= 2; P = 1: in t_0)
+    T_msg = 2 alpha + 8 (3 d + 1) G / B + max(0, ceil(log2 P) alpha_ar - t_d)   (P >= 2; P = 1: in t_0)
+    t_d   = d_share c_p Pi                 (the density pass, which the step's all-reduce runs behind)
     T_msg,b = 4 alpha + 8 (7 + 3 d) G / B + ceil(log2 P) alpha_ar         (the build's rounds)
     [...]: P >= 2 only; m_0, m_n fitted from records at P = 2 (migration's Python, outside MPI waits)
 
@@ -134,7 +135,8 @@ def fit(records, fixed=None):
         per_build = ph.get("rebuild", 0.0) * rec["steps_per_rebuild"]
         rest = r["cpu_s_per_step"] - sum(ph.values())
         rows.append((r["pairs"], r["local"], ph["density"] + ph["forces"],
-                     ph["sync"] + ph.get("halo", 0.0) + ph["integrate"], per_build, rest))
+                     ph["sync"] + ph.get("halo", 0.0) + ph["integrate"], per_build, rest,
+                     ph["density"] / (ph["density"] + ph["forces"])))
     a = np.array(rows)
 
     def lin(x, y, b=None):
@@ -149,7 +151,7 @@ def fit(records, fixed=None):
     b_n, b_0 = lin(a[:, 1], a[:, 4], f.get("b_0"))
     t_x = f.get("t_x", float(a[:, 5].mean()))
     return {"c_p": c_p, "a_p": a_p, "c_n": c_n, "a_n": a_n, "b_0": b_0, "b_n": b_n, "t_x": t_x,
-            "t_0": a_p + a_n + t_x}
+            "t_0": a_p + a_n + t_x, "d_share": float(a[:, 6].mean())}
 
 
 def fit_migration(records):
@@ -179,7 +181,8 @@ def step_time(case, P, k, s, alpha, bandwidth, alpha_ar, threads=1):
     build = k["b_0"] + k["b_n"] * n_loc
     if P >= 2:
         stages = math.ceil(math.log2(P))
-        msg = 2 * alpha + 8 * (3 * d + 1) * g / bandwidth + stages * alpha_ar
+        hidden = min(stages * alpha_ar, k["d_share"] * pair_work)  # the all-reduce runs behind Eq. (3)
+        msg = 2 * alpha + 8 * (3 * d + 1) * g / bandwidth + stages * alpha_ar - hidden
         build += k["m_0"] + k["m_n"] * own    # migration (strays sorted, rows packed, removed and added)
         build += 4 * alpha + 8 * (7 + 3 * d) * g / bandwidth + stages * alpha_ar  # its messages, ghosts
     compute = k["t_0"] + pair_work + k["c_n"] * n_loc
