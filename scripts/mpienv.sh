@@ -8,3 +8,11 @@ fi
 # while they wait: spinning threads ran many times slower on these VMs
 export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive}
 export PARSPH_MPIRUN_FLAGS=${PARSPH_MPIRUN_FLAGS:---oversubscribe}
+# Open MPI's shared-memory transport (vader, 4.x) sends messages of up to 4 KB
+# eagerly and larger ones by rendezvous, which completes only while both ranks
+# are inside MPI: the ghosts' rows of a step (about 10 KB on 2 ranks of the
+# paper case) then wait for the later rank's whole Waitall. Eager up to 64 KB:
+# the paper case on 2 ranks 6-14% faster (docs/performance.md). Another MPI
+# ignores these variables.
+export OMPI_MCA_btl_vader_eager_limit=${OMPI_MCA_btl_vader_eager_limit:-65536}
+export OMPI_MCA_btl_vader_max_send_size=${OMPI_MCA_btl_vader_max_send_size:-65536}
