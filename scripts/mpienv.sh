@@ -12,7 +12,7 @@ export PARSPH_MPIRUN_FLAGS=${PARSPH_MPIRUN_FLAGS:---oversubscribe}
 # eagerly and larger ones by rendezvous, which completes only while both ranks
 # are inside MPI: the ghosts' rows of a step (about 10 KB on 2 ranks of the
 # paper case) then wait for the later rank's whole Waitall. Eager up to 64 KB:
-# the paper case on 2 ranks 6-14% faster (docs/performance.md). Another MPI
+# the paper case on 2 ranks up to 21% faster (docs/performance.md). Another MPI
 # ignores these variables.
 export OMPI_MCA_btl_vader_eager_limit=${OMPI_MCA_btl_vader_eager_limit:-65536}
 export OMPI_MCA_btl_vader_max_send_size=${OMPI_MCA_btl_vader_max_send_size:-65536}
