@@ -5,7 +5,7 @@ x and y, its pressure and viscous factors) into one vector instruction; each
 lane does the scalar's IEEE operation, so the results are the same bit for
 bit (no reassociation, no fused multiply-add: those need fastmath, which
 parsph never asks for). It shortens the scalar force pass by about a seventh
-(docs/performance.md, "The SLP vectoriser"). Set ``NUMBA_SLP_VECTORIZE=0`` to
+(docs/performance.md, "The SLP vectoriser and the all-reduce behind Eq. (3)"). Set ``NUMBA_SLP_VECTORIZE=0`` to
 compile without it; numba reads the setting at each compilation, so this
 must run before the first loop compiles (parsph's ``__init__`` runs it).
 """

@@ -109,7 +109,7 @@ def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, b
 
 
 @njit(cache=True)
-def _density(lst, c, sw, parts, gather, modes):
+def _density(lst, parts, c, sw, gather, modes):
     """Eq. (3) into the list's sums (``lst.rho_sum``, the pairs' (dW/dr)/r): the particles' fields are
     not touched, so that the pass can run while the sync's all-reduce is in flight."""
     if len(modes.threaded):
@@ -147,7 +147,7 @@ def _after_density(plan, lst, parts, c, sw, gather, modes, timers):
 def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
     """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
     t0 = wtime()
-    _density(lst, c, sw, parts, gather, modes)
+    _density(lst, parts, c, sw, gather, modes)
     timers[DENSITY] += wtime() - t0
     return _after_density(plan, lst, parts, c, sw, gather, modes, timers)
 
@@ -200,12 +200,12 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
     kept in ctl[STOP_OUT].
 
     Eq. (3) runs while the flags' all-reduce is in flight (it writes only the list's sums, which a
-    rebuild or a bad state discards): a rank that reaches the all-reduce first does its density pass
-    instead of waiting there, and the ranks meet once, at the ghosts' rho, where they met twice."""
+    rebuild or a bad state discards): the wait for the all-reduce comes after the pass, so a rank that
+    reaches it first computes its densities instead of waiting, and its latency hides behind them."""
     if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers, req):
         return MPI_ERROR
     t0 = wtime()
-    _density(lst, c, sw, parts, gather, modes)
+    _density(lst, parts, c, sw, gather, modes)
     t1 = wtime()
     err = wait(req, stat)
     timers[DENSITY] += t1 - t0
