@@ -54,15 +54,24 @@ def state(nx, warmup):
     return sim, (R.list, pass_data.particle_arrays(sim.ps), R.consts, R.switches), R.gather_arrays()
 
 
-def outputs(lst, parts):
+def outputs(lst, parts, compact=False):
+    """Sums of the particles that need them, the pairs of nonzero (dW/dr)/r (j then the bits of f; from the
+    compact list the serial density pass writes, or from the full list's fp) and the accelerations."""
     n, n_own = lst.n, parts.n_own
     need = lst.need[:n]
-    return (lst.rho_sum[:n][need].copy(), lst.fp[:lst.npairs].copy().view(np.int64), parts.acc[:n_own].copy())
+    if compact:
+        k = lst.cstart[n]
+        j, f = lst.cj[:k], lst.cf[:k]
+    else:
+        j, f = lst.pj[:lst.npairs], lst.fp[:lst.npairs]
+    keep = f != 0
+    pairs = np.concatenate([j[keep].astype(np.int64), f[keep].view(np.int64)])
+    return (lst.rho_sum[:n][need].copy(), pairs, parts.acc[:n_own].copy())
 
 
 def check(args, gather, threads):
     """The new passes give the reference's numbers bit for bit on this list (sums of the particles that need
-    them, (dW/dr)/r per pair, accelerations)."""
+    them, the pairs within 2h with their (dW/dr)/r, accelerations)."""
     lst, parts = args[0], args[1]
     numba.set_num_threads(threads)
     if threads == 1:
@@ -71,14 +80,15 @@ def check(args, gather, threads):
         ref = outputs(lst, parts)
         equations.density_serial(*args)
         equations.momentum_serial(*args)
+        new = outputs(lst, parts, compact=True)
     else:
         reference_passes.density_threaded(*args, gather)
         reference_passes.momentum_threaded(*args, gather)
         ref = outputs(lst, parts)
         equations.density_threaded(*args, gather)
         equations.momentum_threaded(*args, gather)
-    new = outputs(lst, parts)
-    names = ("rho_sum", "fp", "acc")
+        new = outputs(lst, parts)
+    names = ("rho_sum", "pairs", "acc")
     return [name for name, a, b in zip(names, ref, new) if not np.array_equal(a, b)]
 
 

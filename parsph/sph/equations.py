@@ -30,8 +30,8 @@ contributions in pair order (its neighbours' sorted order) starting from the
 same value, whether the serial loops scatter them pair by pair or the
 threaded loops (``prange``) store the pair values and gather them per
 particle: the result is the same bit for bit on any thread and rank count.
-Candidates beyond 2h add exact zeros (the kernel is branch-free and vanishes
-there). Only owned fluid particles receive sums; wall particles hold their
+The serial passes skip the candidates beyond 2h; the threaded ones add
+their exact zeros (the kernel is branch-free and vanishes there). Only owned fluid particles receive sums; wall particles hold their
 density. These functions know nothing of MPI: ghosts are ordinary particles.
 
 A pass takes its data as a few named groups (:mod:`parsph.sph.pass_data`):
@@ -43,22 +43,25 @@ pair loop. The threaded passes hand plain arguments on to their parallel
 kernels (numba's parallel loops misread the arrays of a named tuple).
 
 How the loops are written for speed (docs/performance.md, "Pair passes"):
-the density pass takes the pairs in blocks of :data:`BLOCK`: a scalar loop
-gathers |r_ij|^2 (LLVM vectorises no loop that loads through an index and
-stores, as it cannot rule out that the two overlap), a loop over contiguous
-arrays evaluates the branch-free kernel on vector registers (vsqrtpd,
-vdivpd on ymm or zmm), and a scalar loop adds the sums in pair order and
-copies the pairs within 2h (j and (dW/dr)/r, about three quarters of the
-list) into a compact list, without a branch. The momentum pass walks that
-list: one scalar loop per particle with no test of a pair's distance (the
-test of the full list, taken or not at random in a disordered state, was
-mispredicted often enough to cost a third of the pass). Its work is the
-neighbour's fields, loaded through an index, and the scatter; split into
-gather, vector and scatter loops it measured slower. All loops index with
-unsigned integers (numba tests a signed index for a negative value) and
-use numpy's error model (no test for a zero divisor). The operations and
-their order are those of :mod:`parsph.sph.reference_passes`, the scalar
-loops, so the results are theirs bit for bit; no ``fastmath``.
+the density pass takes the particles' rows a few at a time, about
+:data:`BLOCK` pairs. A scalar loop computes |r_ij|^2 (LLVM vectorises no
+loop that loads through an index and stores, as it cannot rule out that the
+two overlap) and compacts the pairs closer than 2h (about three quarters of
+the list) without a branch: each pair is stored at the end of the compact
+list and the count advanced only for those. A loop over that contiguous
+stretch evaluates the branch-free kernel on vector registers (vsqrtpd,
+vdivpd on ymm or zmm), and a scalar loop adds the sums in pair order. The
+pairs beyond 2h are never evaluated: they would add exact zeros. The
+momentum pass walks the compact list: one scalar loop per particle with no
+test of a pair's distance (the test of the full list, taken or not at
+random in a disordered state, was mispredicted often enough to cost a third
+of the pass). Its work is the neighbour's fields, loaded through an index,
+and the scatter; split into gather, vector and scatter loops it measured
+slower. All loops index with unsigned integers (numba tests a signed index
+for a negative value) and use numpy's error model (no test for a zero
+divisor). The operations and their order are those of
+:mod:`parsph.sph.reference_passes`, the scalar loops, so the results are
+theirs bit for bit; no ``fastmath``.
 """
 import math
 
@@ -106,8 +109,8 @@ def _kernel_values(kid, inv_h, norm, r2, w, f, m):
 
 @njit(cache=True)
 def density_serial(lst, parts, c, sw):
-    """Eq. (3) into ``lst.rho_sum`` for particles 0..n-1; (dW/dr)/r of each pair into ``lst.fp``, and the
-    pairs within 2h into the compact list ``lst.cstart``, ``cj``, ``cf`` that :func:`momentum_serial` walks.
+    """Eq. (3) into ``lst.rho_sum`` for particles 0..n-1, and the pairs within 2h with their (dW/dr)/r into
+    the compact list ``lst.cstart``, ``cj``, ``cf`` that :func:`momentum_serial` walks.
 
     Particle order[a]'s pairs are pstart[a] .. pstart[a+1]-1 (its later
     neighbours). Its sum starts with its own term, gets the pairs of earlier
@@ -118,54 +121,61 @@ def density_serial(lst, parts, c, sw):
 
 @njit(cache=True, error_model="numpy")
 def density_blocks(lst, parts, c, sw, block):
-    """:func:`density_serial` with the pairs taken ``block`` at a time: their distances (gathers), W and
-    (dW/dr)/r (a vector loop), then each particle's sum and the scatter to its neighbours in pair order, with
-    the pairs of nonzero (dW/dr)/r copied to the compact list (always stored, the count advanced only for
-    them); a particle's pairs may go on over the next blocks. Any block gives the same numbers bit for bit."""
-    order, pstart, pi, pj, n, fp, rho_sum = lst.order, lst.pstart, lst.pi, lst.pj, lst.n, lst.fp, lst.rho_sum
+    """:func:`density_serial` taking the places' rows a few at a time, about ``block`` pairs (at least one
+    row): their squared distances, each pair's stored at the end of the compact list and the count advanced
+    only for those within 2h (the reference loops' test, without a branch); W and (dW/dr)/r of those pairs
+    (a vector loop, (dW/dr)/r over the distance in place); then each particle's sum and the scatter to its
+    neighbours in pair order. The pairs beyond 2h, about a quarter of the list, would add exact zeros and
+    are not evaluated. Any block gives the same numbers bit for bit."""
+    order, pstart, pj, n, rho_sum = lst.order, lst.pstart, lst.pj, lst.n, lst.rho_sum
     cstart, cj, cf = lst.cstart, lst.cj, lst.cf
     pos, mass = parts.pos, parts.mass
     kid, inv_h, norm, w0 = c.kid, c.inv_h, c.norm, c.w0
     three_d = sw.three_d
+    support2 = 4.0 / (inv_h * inv_h)
+    longest = uintp(block)
     for k in range(n):
         rho_sum[k] = mass[k] * w0
+        longest = max(longest, uintp(pstart[k + 1]) - uintp(pstart[k]))
+    wb = np.empty(longest)
     cnt = uintp(0)
-    wb = np.empty(block)
-    npairs = uintp(pstart[n])
-    step = uintp(block)
-    a = 0
-    for lo in range(uintp(0), npairs, step):
-        hi = min(lo + step, npairs)
-        fpb = fp[lo:hi]
-        _squared_distances(pos, pi, pj, lo, hi, fpb, three_d)  # fp holds |r_ij|^2 until the next line
-        _kernel_values(kid, inv_h, norm, fpb, wb, fpb, hi - lo)
-        pjb = pj[lo:hi]
-        while a < n:  # the particles with pairs in lo..hi-1, in order
-            p0 = max(uintp(pstart[a]), lo)
-            if p0 >= hi:
-                break
-            row_end = uintp(pstart[a + 1])
-            p1 = min(row_end, hi)
-            if p0 == uintp(pstart[a]):
-                cstart[a] = cnt
+    a0 = 0
+    while a0 < n:
+        c0 = cnt
+        a1 = a0
+        while a1 < n and (a1 == a0 or uintp(pstart[a1 + 1]) - uintp(pstart[a0]) <= uintp(block)):
+            cstart[a1] = cnt
+            i = uintp(order[a1])
+            xi = pos[i, 0]
+            yi = pos[i, 1]
+            zi = pos[i, 2] if len(three_d) else 0.0
+            for p in range(uintp(pstart[a1]), uintp(pstart[a1 + 1])):
+                j = pj[p]
+                dx = xi - pos[uintp(j), 0]
+                dy = yi - pos[uintp(j), 1]
+                r2 = dx * dx + dy * dy
+                if len(three_d):
+                    dz = zi - pos[uintp(j), 2]
+                    r2 += dz * dz
+                cj[cnt] = j  # compacted without a branch: cf holds |r_ij|^2 until the kernel loop
+                cf[cnt] = r2
+                cnt += uintp(r2 < support2)
+            a1 += 1
+        cstart[a1] = cnt
+        cfb = cf[c0:cnt]  # one slice as input and output: LLVM sees the loop's in-place access
+        _kernel_values(kid, inv_h, norm, cfb, wb, cfb, cnt - c0)
+        for a in range(a0, a1):
             i = uintp(order[a])
             mi = mass[i]
             s = rho_sum[i]
-            for p in range(p0 - lo, p1 - lo):
-                j = pjb[p]
-                w = wb[p]
-                s += mass[uintp(j)] * w
-                rho_sum[uintp(j)] += mi * w
-                f = fpb[p]
-                cj[cnt] = j  # the pairs within 2h, compacted without a branch
-                cf[cnt] = f
-                cnt += uintp(f != 0.0)
+            for p in range(uintp(cstart[a]), uintp(cstart[a + 1])):
+                j = uintp(cj[p])
+                w = wb[p - c0]
+                s += mass[j] * w
+                rho_sum[j] += mi * w
             rho_sum[i] = s
-            if row_end > hi:
-                break  # its pairs go on in the next block
-            a += 1
-    for b in range(a, n + 1):  # the places after the last pair
-        cstart[b] = cnt
+        a0 = a1
+    cstart[n] = cnt
 
 
 @njit(cache=True, parallel=True, error_model="numpy")

@@ -57,7 +57,7 @@ class PairList(NamedTuple):
     need: np.ndarray     # the particles that receive sums: the owned fluid
     n: int               # local particles (owned, ghosts, images) at the build
     npairs: int
-    fp: np.ndarray       # (dW/dr)/r per pair: the density passes write it, the threaded momentum pass reads it
+    fp: np.ndarray       # (dW/dr)/r per pair: the threaded density pass writes it, the threaded momentum pass reads it
     rho_sum: np.ndarray  # Eq. (3) per particle
     fields: np.ndarray   # per particle the row a pair reads: columns VX .. PRESS
     cstart: np.ndarray   # the pairs within 2h of place a: cstart[a] .. cstart[a+1]-1 of cj, cf (density_serial)
