@@ -31,7 +31,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from numba import njit, uintp
 
 from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
@@ -91,13 +91,11 @@ def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, b
     rebuild) started: ``flags_all`` holds the agreed values once ``native_mpi.wait(req)`` returned.
     Returns MPI's error code."""
     t0 = wtime()
-    pos, ref, disp = parts.pos, motion.ref, motion.disp
-    dim = pos.shape[1]
-    for i in range(parts.n_own):
-        for d in range(dim):
-            disp[i, d] = pos[i, d] - ref[i, d]
+    pos, ref, d = parts.pos.reshape(-1), motion.ref.reshape(-1), motion.disp.reshape(-1)
+    for k in range(uintp(parts.n_own * parts.pos.shape[1])):  # flat: a vector loop
+        d[k] = pos[k] - ref[k]
     err = native_halo.forward(plan, parts.pos, parts.vel, motion.disp, parts.n_own)
-    spread = block_spread(disp, cells, local, box, work)
+    spread = block_spread(motion.disp, cells, local, box, work)
     flags[0] = bad
     flags[1] = ctl[STOP_IN]
     flags[2] = 1.0 if (ctl[FORCE_IN] != 0.0 or not spread < skin) else 0.0

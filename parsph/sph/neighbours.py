@@ -343,29 +343,23 @@ def block_spread(disp, cells, local, box, work):
     the result infinite; a NaN one is not seen here (the step's non-finite
     flag stops the run first).
     """
-    n, cell = cells.n, cells.cell
     size, centre_lo, centre_hi = local.size, local.centre_lo, local.centre_hi
     dim = disp.shape[1]
     nx, ny, nz = size[0], size[1], size[2]
     ncells = uintp(nx * ny * nz)
-    for q in range(dim):
-        box[q, :ncells] = np.inf
-        box[3 + q, :ncells] = -np.inf
-    for i in range(uintp(n)):
-        c = uintp(cell[i])
+    order, start = cells.order, cells.start
+    for c in range(ncells):  # each cell's box from its sorted places: no store-to-load chains
+        lo = uintp(start[c])
+        hi = uintp(start[c + 1])
         for q in range(dim):
-            v = disp[i, q]
-            b = box[q, c]
-            box[q, c] = v if v < b else b
-            b = box[3 + q, c]
-            box[3 + q, c] = v if v > b else b
-    lo0 = box[0]
-    hi0 = box[3]
-    for c in range(ncells):
-        if lo0[c] > hi0[c]:  # empty cell: displacement 0
-            for q in range(dim):
-                box[q, c] = 0.0
-                box[3 + q, c] = 0.0
+            mn = np.inf
+            mx = -np.inf
+            for k in range(lo, hi):
+                v = disp[uintp(order[k]), q]
+                mn = v if v < mn else mn
+                mx = v if v > mx else mx
+            box[q, c] = mn if hi > lo else 0.0
+            box[3 + q, c] = mx if hi > lo else 0.0
     src = box
     dst = work
     stride = 1
