@@ -32,6 +32,7 @@ from numba import njit
 
 from parsph.studies import cases
 from parsph.simulation.solver import PHASES, Simulation
+from parsph.sph import pass_data, reference_passes
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -151,6 +152,9 @@ def reference(sim, repeat=20):
     R, N, ps, cfg = sim.rates, sim.neighbours, sim.ps, sim.cfg
     n = ps.n
     pairs = N.npairs
+    # (dW/dr)/r of every listed pair, which the force loops below read (the solver's serial pass writes only
+    # the pairs within 2h, into its compact list): the scalar reference pass fills R.fp
+    reference_passes.density_serial(R.list, pass_data.particle_arrays(ps), R.consts, R.switches)
     x, y = ps.pos[:n, 0].copy(), ps.pos[:n, 1].copy()
     vx, vy = ps.vel[:n, 0].copy(), ps.vel[:n, 1].copy()
     th = ps.theta[:n].copy()
