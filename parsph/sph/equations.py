@@ -31,8 +31,9 @@ same value, whether the serial loops scatter them pair by pair or the
 threaded loops (``prange``) store the pair values and gather them per
 particle: the result is the same bit for bit on any thread and rank count.
 The serial passes skip the candidates beyond 2h; the threaded ones add
-their exact zeros (the kernel is branch-free and vanishes there). Only owned fluid particles receive sums; wall particles hold their
-density. These functions know nothing of MPI: ghosts are ordinary particles.
+their exact zeros (the kernel is branch-free and vanishes there). Only
+owned fluid particles receive sums; wall particles hold their density.
+These functions know nothing of MPI: ghosts are ordinary particles.
 
 A pass takes its data as a few named groups (:mod:`parsph.sph.pass_data`):
 the neighbour list and the arrays indexed like it, the particles' fields,
@@ -47,16 +48,16 @@ the density pass takes the particles' rows a few at a time, about
 :data:`BLOCK` pairs. A scalar loop computes |r_ij|^2 (LLVM vectorises no
 loop that loads through an index and stores, as it cannot rule out that the
 two overlap; into a buffer on the stack it does, with AVX-512 gathers that
-measured slower than scalar loads on AMD Zen 4) and compacts the pairs closer than 2h (about three quarters of
-the list) without a branch: each pair is stored at the end of the compact
-list and the count advanced only for those. A loop over that contiguous
-stretch evaluates the branch-free kernel on vector registers (vsqrtpd,
-vdivpd on ymm or zmm), and a scalar loop adds the sums in pair order. The
-pairs beyond 2h are never evaluated: they would add exact zeros. The
-momentum pass walks the compact list: one scalar loop per particle with no
-test of a pair's distance (the test of the full list, taken or not at
-random in a disordered state, was mispredicted often enough to cost a third
-of the pass). Its work is the neighbour's fields, loaded through an index,
+measured slower than scalar loads on AMD Zen 4) and compacts the pairs
+closer than 2h (about three quarters of the list) without a branch: each
+pair is stored at the end of the compact list and the count advanced only
+for those. A loop over that contiguous stretch evaluates the branch-free
+kernel on vector registers (vsqrtpd, vdivpd on ymm or zmm), and a scalar
+loop adds the sums in pair order. The pairs beyond 2h are never evaluated:
+they would add exact zeros. The momentum pass walks the compact list: one
+scalar loop per particle with no test of a pair's distance (the test of the
+full list, taken or not at random in a disordered state, was mispredicted
+often enough to cost a third of the pass). Its work is the neighbour's fields, loaded through an index,
 and the scatter; split into gather, vector and scatter loops it measured
 slower. All loops index with unsigned integers (numba tests a signed index
 for a negative value) and use numpy's error model (no test for a zero
