@@ -1,4 +1,5 @@
-"""Several ranks against one: bit-for-bit rank independence, and conservation through migration.
+"""Several ranks against one: bit-for-bit rank independence, conservation through migration, and the
+switch of equal masses that every rank must agree on.
 
 Run under mpirun (pytest-mpi), e.g.
 
@@ -305,3 +306,24 @@ def test_kinds_counts_conserved():
     k = sim.ps.kind[:sim.ps.n_own]
     counts = comm.allreduce(np.array([(k == FLUID).sum(), (k == WALL).sum(), (k == MOVING_WALL).sum()]))
     assert counts.tolist() == [rows * 50, rows * 3, rows * 3]
+
+
+# ---- (c) the switch of equal masses ---------------------------------------------------------
+def test_equal_masses_agreed_by_every_rank():
+    """The serial passes load no mass only where every particle on every rank has the same one: one
+    heavier particle in the last rank's slab turns that off on all ranks."""
+    comm = MPI.COMM_WORLD
+    cfg = load()
+    gid, kind, mass, pos, vel = cfg.scene.particles(cfg, 0.0, cfg.Ly)
+    state = {"id": gid, "kind": kind, "mass": mass, "position": pos, "velocity": vel,
+             "attrs": {"step": 0, "time": 0.0, "dt": cfg.dt}}
+    sim = Simulation(cfg, comm, state=state)
+    equal = comm.allgather((sim.rates.switches.uniform_mass, sim.rates.consts.mass))
+    assert equal == [((1,), mass[0])] * comm.size
+    heavy = mass.copy()
+    top = int(np.argmax(pos[:, 1]))  # in the last rank's slab
+    heavy[top] *= 1.5
+    sim = Simulation(cfg, comm, state={**state, "mass": heavy})
+    holds = bool(np.any(sim.ps.mass[:sim.ps.n_own] != mass[0]))
+    unequal = comm.allgather((holds, sim.rates.switches.uniform_mass))
+    assert unequal == [(False, ())] * (comm.size - 1) + [(True, ())]

@@ -5,8 +5,9 @@ blocks (distances, a vector loop for the kernel, sums in pair order) and the loo
 indices: the same floating-point operations in the same order, so every sum must come out the same to the
 last bit. Checked on the solver's own neighbour list after some steps (particles off the lattice) for the
 scenes' combinations of terms: 2-D and 3-D, walls on and off, body force, the paper's and the consistent
-pressure, both viscosity forms, both kernels; the serial and the threaded passes. One case is also checked
-against a brute-force sum of Eq. (3) over every pair of local particles (an independent reference).
+pressure, both viscosity forms, both kernels, equal masses (the serial passes load none) and unequal ones;
+the serial and the threaded passes. One case is also checked against a brute-force sum of Eq. (3) over every
+pair of local particles (an independent reference).
 """
 import numba
 import numpy as np
@@ -29,12 +30,22 @@ CASES = {
     "couette_3d": ("couette_3d", []),
     "periodic_box": ("periodic_box", ["domain.Ly=0.001"]),
     "settling": ("settling", []),
+    "unequal_masses": ("couette_paper", ["domain.Ly=0.001"], 0.1),
 }
 
 
-def stepped(name, over, steps=20):
+def stepped(name, over, mass_spread=0.0, steps=20):
+    """The scene after ``steps`` steps; with ``mass_spread``, its particles' masses scattered by up to that
+    fraction (so the passes load each particle's mass)."""
     cfg = config.load(ROOT / "run" / f"{name}.toml", [*over, "output.times=[]"])
-    sim = Simulation(cfg, MPI.COMM_SELF)
+    state = None
+    if mass_spread:
+        gid, kind, mass, pos, vel = cfg.scene.particles(cfg, 0.0, cfg.Ly)
+        mass = mass * (1.0 + mass_spread * np.random.default_rng(5).uniform(-1.0, 1.0, mass.size))
+        state = {"id": gid, "kind": kind, "mass": mass, "position": pos, "velocity": vel,
+                 "attrs": {"step": 0, "time": 0.0, "dt": cfg.dt}}
+    sim = Simulation(cfg, MPI.COMM_SELF, state=state)
+    assert sim.rates.switches.uniform_mass == pass_data.switch(not mass_spread)
     for _ in range(steps):
         sim.compute_rates()
         sim.advance(sim.dt)
@@ -86,8 +97,7 @@ def assert_same(ref, new, what):
 
 @pytest.fixture(scope="module", params=sorted(CASES))
 def case(request):
-    name, over = CASES[request.param]
-    sim, args = stepped(name, over)
+    sim, args = stepped(*CASES[request.param])
     reference_passes.density_serial(*args)
     reference_passes.momentum_serial(*args)
     ref = results(args)

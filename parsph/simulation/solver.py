@@ -87,8 +87,8 @@ class Simulation(CompiledSteps):
         self.dt = cfg.dt if state is None else float(state["attrs"]["dt"])
         self.timers = defaultdict(float)
         self.neighbours = NeighbourList(self.grid)
-        self.rates = Rates(*self._pass_groups())
         self.collect = Collectives(comm)
+        self.rates = Rates(*self._pass_groups())
         self.n_total = self.collect.total(ps.n_own)
         fluid = ps.kind[:ps.n_own] == FLUID
         self.limits = limits_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
@@ -112,12 +112,22 @@ class Simulation(CompiledSteps):
         inv_h = 1.0 / cfg.h
         norm = kernel.norm(cfg.h, cfg.dim)
         w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
+        mass = self._the_one_mass()
         consts = pass_data.Constants(kernel.kid, inv_h, norm, w0, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L,
-                                     cfg.beta_max, np.asarray(self.g, float))
+                                     cfg.beta_max, np.asarray(self.g, float), mass)
         switches = pass_data.Switches(sw(cfg.pressure), sw(cfg.viscosity),
                                       sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(self.scene.walls),
-                                      sw(cfg.get("numerics.pressure_form") == "consistent"), sw(cfg.dim == 3))
+                                      sw(cfg.get("numerics.pressure_form") == "consistent"), sw(cfg.dim == 3),
+                                      sw(mass > 0.0))
         return consts, switches
+
+    def _the_one_mass(self):
+        """The mass every particle of the run has, or 0.0 where they differ (over all ranks; a run neither
+        creates nor changes particles, so it holds to the end)."""
+        m = self.ps.mass[:self.ps.n_own]
+        lo_hi = np.array([-m.min(), m.max()]) if m.size else np.array([-np.inf, -np.inf])
+        neg_lo, hi = self.collect.max(lo_hi)
+        return float(hi) if -neg_lo == hi else 0.0
 
     def _particles(self, state):
         """This slab's particles: from the scene, from a snapshot (``state["path"]``) or from arrays."""

@@ -57,13 +57,16 @@ loop adds the sums in pair order. The pairs beyond 2h are never evaluated:
 they would add exact zeros. The momentum pass walks the compact list: one
 scalar loop per particle with no test of a pair's distance (the test of the
 full list, taken or not at random in a disordered state, was mispredicted
-often enough to cost a third of the pass). Its work is the neighbour's fields, loaded through an index,
-and the scatter; split into gather, vector and scatter loops it measured
-slower. All loops index with unsigned integers (numba tests a signed index
-for a negative value) and use numpy's error model (no test for a zero
-divisor). The operations and their order are those of
-:mod:`parsph.sph.reference_passes`, the scalar loops, so the results are
-theirs bit for bit; no ``fastmath``.
+often enough to cost a third of the pass). Its work is the neighbour's
+fields, loaded through an index, and the scatter; split into gather, vector
+and scatter loops it measured slower. Where every particle of the run has
+the same mass (``Switches.uniform_mass``, agreed by all ranks at set-up),
+the serial passes take it from the constants and load none: the kernel
+loop writes m W, the product both members of a pair add. All loops index
+with unsigned integers (numba tests a signed index for a negative value)
+and use numpy's error model (no test for a zero divisor). The operations
+and their order are those of :mod:`parsph.sph.reference_passes`, the scalar
+loops, so the results are theirs bit for bit; no ``fastmath``.
 """
 import math
 
@@ -97,15 +100,17 @@ def _squared_distances(pos, pi, pj, lo, hi, r2, three_d):
 
 
 @njit(cache=True, inline="always")
-def _kernel_values(kid, inv_h, norm, r2, w, f, m):
+def _kernel_values(kid, inv_h, norm, r2, w, f, m, mass, uniform_mass):
     """W and (dW/dr)/r of the m distances^2 in r2 into w and f (f may be r2 itself): contiguous arrays and a
-    branch-free kernel, so that this loop runs on vector registers (4 pairs an instruction on AVX2).
+    branch-free kernel, so that this loop runs on vector registers (4 pairs an instruction on AVX2). With
+    ``uniform_mass`` on, w gets m W, the term of Eq. (3) both members of a pair receive (the product the
+    sums would form, so the same bits).
 
     Beyond 2h both are zero (``+ 0.0`` turns the kernel's -0.0 into the +0.0 a skipped pair used to leave).
     """
     for q in range(m):
         wq, fq = kernel_w_f(kid, math.sqrt(r2[q]), inv_h, norm)
-        w[q] = wq
+        w[q] = mass * wq if len(uniform_mass) else wq
         f[q] = fq + 0.0
 
 
@@ -132,12 +137,12 @@ def density_blocks(lst, parts, c, sw, block):
     order, pstart, pj, n, rho_sum = lst.order, lst.pstart, lst.pj, lst.n, lst.rho_sum
     cstart, cj, cf = lst.cstart, lst.cj, lst.cf
     pos, mass = parts.pos, parts.mass
-    kid, inv_h, norm, w0 = c.kid, c.inv_h, c.norm, c.w0
-    three_d = sw.three_d
+    kid, inv_h, norm, w0, m_all = c.kid, c.inv_h, c.norm, c.w0, c.mass
+    three_d, uniform_mass = sw.three_d, sw.uniform_mass
     support2 = 4.0 / (inv_h * inv_h)
     longest = uintp(block)
     for k in range(n):
-        rho_sum[k] = mass[k] * w0
+        rho_sum[k] = (m_all if len(uniform_mass) else mass[k]) * w0
         longest = max(longest, uintp(pstart[k + 1]) - uintp(pstart[k]))
     wb = np.empty(longest)
     cnt = uintp(0)
@@ -165,16 +170,22 @@ def density_blocks(lst, parts, c, sw, block):
             a1 += 1
         cstart[a1] = cnt
         cfb = cf[c0:cnt]  # one slice as input and output: LLVM sees the loop's in-place access
-        _kernel_values(kid, inv_h, norm, cfb, wb, cfb, cnt - c0)
+        _kernel_values(kid, inv_h, norm, cfb, wb, cfb, cnt - c0, m_all, uniform_mass)
         for a in range(a0, a1):
             i = uintp(order[a])
-            mi = mass[i]
             s = rho_sum[i]
-            for p in range(uintp(cstart[a]), uintp(cstart[a + 1])):
-                j = uintp(cj[p])
-                w = wb[p - c0]
-                s += mass[j] * w
-                rho_sum[j] += mi * w
+            if len(uniform_mass):  # wb holds m W: no mass to load or multiply
+                for p in range(uintp(cstart[a]), uintp(cstart[a + 1])):
+                    mw = wb[p - c0]
+                    s += mw
+                    rho_sum[uintp(cj[p])] += mw
+            else:
+                mi = mass[i]
+                for p in range(uintp(cstart[a]), uintp(cstart[a + 1])):
+                    j = uintp(cj[p])
+                    w = wb[p - c0]
+                    s += mass[j] * w
+                    rho_sum[j] += mi * w
             rho_sum[i] = s
         a0 = a1
     cstart[n] = cnt
@@ -191,7 +202,7 @@ def _density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, n
         hi = min(lo + uintp(BLOCK), uintp(npairs))
         fpb = fp[lo:hi]
         _squared_distances(pos, pi, pj, lo, hi, fpb, three_d)
-        _kernel_values(kid, inv_h, norm, fpb, wp[lo:hi], fpb, hi - lo)
+        _kernel_values(kid, inv_h, norm, fpb, wp[lo:hi], fpb, hi - lo, 1.0, ())
     for k in prange(n):
         s = mass[k] * w0
         if need[k]:
@@ -314,8 +325,8 @@ def momentum_serial(lst, parts, c, sw):
     """
     order, cstart, cj, cf, n, fields, need = lst.order, lst.cstart, lst.cj, lst.cf, lst.n, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
-    rho_s, G_b, k_visc, L, beta_max, g = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g
-    pressure, viscosity, symmetric_mu, walls, consistent, three_d = sw
+    rho_s, G_b, k_visc, L, beta_max, g, m_all = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g, c.mass
+    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass = sw
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for k in range(n):
@@ -339,7 +350,7 @@ def momentum_serial(lst, parts, c, sw):
         irho_i = fields[i, INV_RHO]
         ith_i = fields[i, INV_THETA]
         pr_i = fields[i, PRESS]
-        mi = mass[i]
+        mi = m_all if len(uniform_mass) else mass[i]
         ax = acc[i, 0]
         ay = acc[i, 1]
         az = acc[i, 2] if len(three_d) else 0.0
@@ -372,7 +383,7 @@ def momentum_serial(lst, parts, c, sw):
                     if len(walls) and kind[j] != FLUID:
                         mu *= _beta(xi, pos[j, 0], L, beta_max)
                     s = mu * V
-                m = mass[j]
+                m = m_all if len(uniform_mass) else mass[j]
                 ax += m * (P * rx + s * vx)
                 ay += m * (P * ry + s * vy)
                 if len(three_d):

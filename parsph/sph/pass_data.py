@@ -31,6 +31,7 @@ class Switches(NamedTuple):
     walls: tuple         # plates bound the box: wall particles get beta (Morris et al. 1997)
     consistent: tuple    # pressure as the symmetric SPH gradient of p = G / (G_a ln 10)
     three_d: tuple
+    uniform_mass: tuple  # every particle of the run has the mass Constants.mass: the serial passes load none
 
 
 class Constants(NamedTuple):
@@ -46,6 +47,7 @@ class Constants(NamedTuple):
     L: float           # distance of the plates (beta)
     beta_max: float
     g: np.ndarray      # body force, 3 components
+    mass: float        # every particle's mass where Switches.uniform_mass is on (else unused)
 
 
 class PairList(NamedTuple):

@@ -131,7 +131,8 @@ def momentum_serial(lst, parts, c, sw):
     order, pstart, pj, n, fp, fields, need = lst.order, lst.pstart, lst.pj, lst.n, lst.fp, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
     rho_s, G_b, k_visc, L, beta_max, g = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g
-    pressure, viscosity, symmetric_mu, walls, consistent, three_d = sw
+    pressure, viscosity, symmetric_mu, walls, consistent, three_d = (sw.pressure, sw.viscosity, sw.symmetric_mu,
+                                                                  sw.walls, sw.consistent, sw.three_d)
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for k in range(n):
