@@ -106,7 +106,8 @@ def _kernel_values(kid, inv_h, norm, r2, w, f, m, mass, uniform_mass):
     ``uniform_mass`` on, w gets m W, the term of Eq. (3) both members of a pair receive (the product the
     sums would form, so the same bits).
 
-    Beyond 2h both are zero (``+ 0.0`` turns the kernel's -0.0 into the +0.0 a skipped pair used to leave).
+    Beyond 2h both are zero (``+ 0.0`` turns the kernel's -0.0 into +0.0, the value the serial pass's
+    skipped pairs stand for, so that the threaded passes' fp has the same bits).
     """
     for q in range(m):
         wq, fq = kernel_w_f(kid, math.sqrt(r2[q]), inv_h, norm)
