@@ -14,11 +14,11 @@ DIR/<family>/nx<N_x>_dtlimit). The estimates are
 :mod:`parsph.studies.estimates`'; the cost of a level is the process CPU time
 of its time loop summed over ranks, up to each output time. A level whose
 ``level.json`` records the same run file is reused, so a stopped study
-resumes. The command (options, exit codes, the report's files) is
+resumes (:class:`parsph.studies.runs.Runs`, the studies' one resumable
+runner). The command (options, exit codes, the report's files) is
 :mod:`parsph.cli.converge`.
 """
 from dataclasses import dataclass, fields
-import json
 import os
 from typing import NamedTuple, Optional
 
@@ -29,6 +29,7 @@ from parsph.setup import config
 from parsph.simulation.case import run_case
 from parsph.simulation.solver import Simulation
 from .levels import BIAS_MIN, bias_of, bias_run_file
+from .runs import RunDirs, Runs
 
 
 @dataclass
@@ -77,6 +78,7 @@ class Study:
         self.stop_requested = stop_requested
         self.running = None
         self._warm = False
+        self._runs = Runs(RunDirs("level.json"), comm)
 
     def run(self):
         """Every family's runs: a list of :class:`FamilyRuns`."""
@@ -119,7 +121,7 @@ class Study:
         ldir = os.path.join(self.out_dir, fam, sub)
         # the header names no level index, so a study from another base N_x can reuse this level
         text = f"# parsph converge: {self.name}, family {fam}, N_x = {nx}\n" + rf.dump()
-        rec = comm.bcast(_reusable(ldir, text) if root else None, root=0)
+        rec = _level_run(self._runs.done((ldir, text)))
         if rec is not None:
             self.say(f"parsph converge: family {fam}, {what}: N_x = {nx}, reusing {ldir}")
             return rec
@@ -138,9 +140,7 @@ class Study:
         comm.Allreduce(np.array([o.cpu_s for o in res.outputs], dtype=float), cpu)
         rec = LevelRun(fam, nx, ldir, text, int(res.sim.n_total), [float(o.t) for o in res.outputs],
                        [int(o.step) for o in res.outputs], cpu.tolist(), comm.size, self.threads)
-        if root:
-            with open(os.path.join(ldir, "level.json"), "w") as f:
-                json.dump(rec.record(), f, indent=1)
+        self._runs.add((ldir, text), rec.record())
         return rec
 
 
@@ -160,13 +160,9 @@ def _write(root, ldir, path, text):
             raise UsageError(f"cannot write {path}: {e.strerror}") from None
 
 
-def _reusable(ldir, text):
-    """The run of a finished level with exactly this run file (its directory now ``ldir``), else None."""
+def _level_run(rec):
+    """A kept level's record as a LevelRun (None: none kept, or a record of another form)."""
     try:
-        with open(os.path.join(ldir, "level.json")) as f:
-            rec = json.load(f)
-        run = LevelRun(**rec)
-    except (OSError, ValueError, TypeError):
+        return None if rec is None else LevelRun(**rec)
+    except TypeError:
         return None
-    run.dir = ldir  # the study may have been moved since
-    return run if run.run_file == text else None

@@ -7,9 +7,7 @@ a time-step failure: two failing runs >= 8 % apart in dt that fail by the same c
 of the same physical time failed because of the flow itself (``physical``); bounds count time-step
 failures only. ``scripts/stability_map.py`` drives the grid, the CSVs and the figures.
 """
-import csv
 import math
-import os
 import time
 
 import numpy as np
@@ -18,6 +16,7 @@ from mpi4py import MPI
 from parsph.errors import GuardError
 from parsph.simulation.guards import CRITERIA, CRITERION_OF, read
 from parsph.simulation.solver import Simulation
+from .runs import CsvRows, Runs
 
 
 class CriterionFailed(RuntimeError):
@@ -101,55 +100,34 @@ def run_and_classify(cfg, rec):
 
 
 # ---- the runs so far: a CSV a stopped map resumes from --------------------------------------------
-def append_row(path, fields, row):
-    """Append one row to a CSV; a new file gets the header ``fields``, an existing one keeps its own
-    (older CSVs lack later columns, and the file names the integrator)."""
-    header = fields
-    if os.path.exists(path):
-        with open(path, newline="") as f:
-            header = next(csv.reader(f), None) or fields
-    with open(path, "a", newline="") as f:
-        w = csv.DictWriter(f, header, extrasaction="ignore")
-        if header is fields:
-            w.writeheader()
-        w.writerow(row)
-
-
-def load_rows(path):
-    """The rows of a CSV (as strings), none where it does not exist."""
-    if not os.path.exists(path):
-        return []
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
 def key_of(row):
     return (int(row["nx"]), round(float(row["theta0"]), 6), round(float(row["Re"]), 6),
             round(float(row["multiple"]), 9))
 
 
 class Results:
-    """The CSV of one integrator's (or scene's) runs, keyed by (N_x, theta_0, Re, multiple); a run already
-    in it is not repeated. ``runner(theta0, Re, nx, multiple, source)`` makes one run's row."""
+    """The CSV of one integrator's (or scene's) runs, keyed by (N_x, theta_0, Re, multiple): the studies'
+    resumable runner (:class:`parsph.studies.runs.Runs`) on a CSV, so that a run already in it is not
+    repeated. ``runner(theta0, Re, nx, multiple, source)`` makes one run's row."""
 
     def __init__(self, path, runner, fields):
-        self.path, self.runner, self.fields = path, runner, fields
-        self.rows = load_rows(path)
-        self.done = {key_of(r): r for r in self.rows}
+        self.runner = runner
+        self.runs = Runs(CsvRows(path, fields, key_of))
+
+    @property
+    def rows(self):
+        """Every run so far (as strings)."""
+        return self.runs.store.rows
 
     def get(self, theta0, Re, nx, multiple, source="grid"):
         key = (nx, round(theta0, 6), round(Re, 6), round(multiple, 9))
-        if key in self.done:
-            return self.done[key]
-        row = self.runner(theta0, Re, nx, multiple, source)
-        append_row(self.path, self.fields, row)
-        row = {k: str(v) for k, v in row.items()}
-        self.rows.append(row)
-        self.done[key] = row
-        verdict = "stable  " if row["stable"] == "1" else f"UNSTABLE ({row['first_failure']} at step {row['fail_step']})"
-        print(f"Nx={nx:3d} theta0={theta0:<5g} Re={Re:<6g} dt/limit={multiple:<8.4g} {verdict}  "
-              f"[{float(row['wall_s']):.1f} s]", flush=True)
-        return row
+        return self.runs.get(key, lambda: self.runner(theta0, Re, nx, multiple, source), then=_say)
+
+
+def _say(row):
+    verdict = "stable  " if row["stable"] == "1" else f"UNSTABLE ({row['first_failure']} at step {row['fail_step']})"
+    print(f"Nx={int(row['nx']):3d} theta0={float(row['theta0']):<5g} Re={float(row['Re']):<6g} "
+          f"dt/limit={float(row['multiple']):<8.4g} {verdict}  [{float(row['wall_s']):.1f} s]", flush=True)
 
 
 # ---- verdicts: a time-step instability, or a failure at a fixed physical time ----------------------
