@@ -44,7 +44,10 @@ unit circle's edge that needs more steps than a run takes); docs/stability.md
 compares the prediction with the measured map. Two classical limits are kept
 beside it: advection, dt <= 0.5 h / |v|_max (a particle moves at most h/4 in
 half a step: the midpoint skin of the solver's halo), and a body force,
-dt <= 0.25 sqrt(h / |a|_max) (Monaghan 1992).
+dt <= 0.25 sqrt(h / |a|_max) (Monaghan 1992). With a gas and explicit drag, ``drag``: dt <= tau_min =
+1 / C_max, C the drag coefficient of :func:`parsph.sph.equations.drag_plain` (the explicit update is
+stable for dt < 2 tau and free of overshoot for dt < tau; PHYSICS.md). Implicit drag has no limit.
+:func:`state_limit` is the one place of these three (numba; the compiled blocks call it).
 
 The functions take their arguments in three groups, as the passes do:
 :class:`Material` (rho_s, k, G_a, G_b), :class:`Lattice` (h, the lattice
@@ -56,6 +59,7 @@ import math
 from typing import NamedTuple, Optional
 
 import numpy as np
+from numba import njit
 
 from . import closures
 from .kernels import get_kernel
@@ -310,9 +314,34 @@ def _linear_cached(*args):
     return linear_limit(*args)
 
 
-def limits(theta, vmax, amax, material, lattice, terms=Terms(), integrator="paper"):
+@njit(cache=True)
+def advection_limit(h, vmax):
+    """0.5 h / |v|_max [s] (inf at rest)."""
+    return 0.5 * h / vmax if vmax > 0 else math.inf
+
+
+@njit(cache=True)
+def force_limit(h, amax):
+    """0.25 sqrt(h / |a|_max) [s] (Monaghan 1992; inf without acceleration)."""
+    return 0.25 * math.sqrt(h / amax) if amax > 0 else math.inf
+
+
+@njit(cache=True)
+def drag_limit(drag_max):
+    """1 / C_max = tau_min [s], explicit drag's limit (inf without drag)."""
+    return 1.0 / drag_max if drag_max > 0 else math.inf
+
+
+@njit(cache=True)
+def state_limit(h, vmax, amax, drag_max):
+    """The smallest of the advection, force and drag limits [s] of a state."""
+    return min(advection_limit(h, vmax), force_limit(h, amax), drag_limit(drag_max))
+
+
+def limits(theta, vmax, amax, material, lattice, terms=Terms(), integrator="paper", drag_max=0.0):
     """The limits [s] at (theta, |v|_max, |a|_max) (inf where absent): the linear one under its term's
-    name, ``advection`` 0.5 h / |v|_max and ``force`` 0.25 sqrt(h / |a|_max). The smallest is the stable step.
+    name, ``advection`` 0.5 h / |v|_max, ``force`` 0.25 sqrt(h / |a|_max) and, where ``drag_max`` (the
+    largest explicit drag coefficient C [1/s]) is positive, ``drag`` 1 / C. The smallest is the stable step.
 
     The linear limit falls as theta rises; it is evaluated at theta rounded up
     to a multiple of THETA_STEP (a cache: a run's theta_max takes few values).
@@ -322,22 +351,25 @@ def limits(theta, vmax, amax, material, lattice, terms=Terms(), integrator="pape
     dt, term = _linear_cached(th, Material(*material), lattice._replace(spacing=tuple(lattice.spacing)),
                               Terms(bool(terms.pressure), bool(terms.viscosity), terms.form), integrator)
     out = {term: dt} if term != "none" else {}
-    out["advection"] = 0.5 * h / vmax if vmax > 0 else math.inf
-    out["force"] = 0.25 * math.sqrt(h / amax) if amax > 0 else math.inf
+    out["advection"] = advection_limit(h, vmax)
+    out["force"] = force_limit(h, amax)
+    if drag_max > 0:
+        out["drag"] = drag_limit(drag_max)
     return out
 
 
-def run_limits(cfg, theta, vmax, amax):
-    """:func:`limits` for the run ``cfg`` at (theta, |v|_max, |a|_max)."""
-    return limits(theta, vmax, amax, *groups(cfg), cfg.integrator)
+def run_limits(cfg, theta, vmax, amax, drag_max=0.0):
+    """:func:`limits` for the run ``cfg`` at (theta, |v|_max, |a|_max, C_max of explicit drag)."""
+    return limits(theta, vmax, amax, *groups(cfg), cfg.integrator, drag_max)
 
 
-def stable_dt(cfg, theta_max, v_max, a_max):
+def stable_dt(cfg, theta_max, v_max, a_max, drag_max=0.0):
     """(largest stable dt [s], the term that sets it) of run ``cfg`` at the current state.
 
-    theta_max: the largest fluid theta (the stiffest, least damped modes).
+    theta_max: the largest fluid theta (the stiffest, least damped modes); drag_max: the largest
+    explicit drag coefficient C [1/s] (0 for none, or implicit drag).
     ``numerics.dt_safety`` is the caller's to apply.
     """
-    lim = run_limits(cfg, min(theta_max, 0.999), v_max, a_max)
+    lim = run_limits(cfg, min(theta_max, 0.999), v_max, a_max, drag_max)
     term = min(lim, key=lim.get)
     return lim[term], term

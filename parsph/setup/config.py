@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 import math
 
 from parsph.physics.kernels import get_kernel
+from parsph.physics import drag as closures_drag
 from parsph.physics import limits as stability
 from parsph.errors import ConfigError
 from .runfile import RunFile
@@ -41,6 +42,33 @@ def bytes_per_particle(cfg, threads=1):
     listed = entries / 2 * ((reach + cfg.get("numerics.skin") * cfg.h) / reach) ** cfg.dim  # pairs within 2h + skin
     threaded = 1.3 * (8 + 40 * entries / 2) if threads > 1 else 0.0
     return 300 + 100 * cfg.dim + 1.3 * 12 * entries + 1.3 * 12 * listed + threaded
+
+
+AIR_RHO, AIR_MU = 1.2, 1.8e-5  # the gas's defaults: air at 20 C [kg/m^3], [Pa s]
+
+
+@dataclass(frozen=True)
+class Gas:
+    """The gas the solids are in (PHYSICS.md, "The solid phase in a gas"): its closure and the gas velocity.
+
+    A stream has the constant velocity ``velocity``; a column is fed at superficial velocity ``U`` along
+    the axis ``axis`` opposite to gravity (``sign``: +1 where that is +axis), its gas velocity per
+    particle ``(U - theta v.e) / eps`` along e."""
+    closure: str       # "stokes", "wen_yu", "gidaspow"
+    model: int         # parsph.physics.drag.MODELS[closure]
+    rho: float         # [kg/m^3]
+    mu: float          # [Pa s]
+    d: float           # grain diameter [m]
+    flow: str          # "stream" or "column"
+    velocity: tuple    # stream: the gas velocity per dimension [m/s] (column: zeros)
+    U: float           # column: superficial velocity [m/s]
+    axis: int          # column: the axis of gravity (-1 for a stream)
+    sign: float        # column: e = sign * unit(axis)
+    implicit: bool     # numerics.drag_update
+
+    @property
+    def column(self):
+        return self.flow == "column"
 
 
 @dataclass(frozen=True)
@@ -77,6 +105,7 @@ class RunConfig:
     integrator: str
     g: tuple
     scene: object = None
+    gas: object = None   # Gas, or None: no gas (gas.drag = "none")
     pressure: bool = True
     viscosity: bool = True
     limits: dict = field(default_factory=dict)
@@ -98,16 +127,43 @@ class RunConfig:
 
     @property
     def velocity_scale(self):
-        """The scene's velocity scale [m/s]: errors are normalised by it."""
-        return self.scene.velocity_scale(self)
+        """The run's velocity scale [m/s]: the scene's, or the gas's (:attr:`gas_speed`) where larger;
+        errors are normalised by it."""
+        return max(self.scene.velocity_scale(self), self.gas_speed)
+
+    @property
+    def gas_speed(self):
+        """The speed the gas drives [m/s]: a stream's |u_g|, or a column's U and its hindered settling
+        speed at theta_0 (Stokes's, u_t eps_0^4.65, which bounds the other closures'); 0 without a gas."""
+        gas = self.gas
+        if gas is None:
+            return 0.0
+        if not gas.column:
+            return math.sqrt(sum(u * u for u in gas.velocity))
+        g = math.sqrt(sum(x * x for x in self.g))
+        u_t = closures_drag.terminal_velocity(self.rho_s, gas.rho, g, gas.d, gas.mu)
+        return max(gas.U, u_t * (1.0 - self.theta0) ** 4.65)
+
+    def drag_coefficient(self, theta, slip):
+        """The largest drag coefficient C [1/s] of a particle at (theta, |u_g - v| = slip): 1/tau with tau
+        of PHYSICS.md (along a column's axis: rho_s theta eps^2 / beta); 0 without a gas."""
+        gas = self.gas
+        if gas is None:
+            return 0.0
+        return 1.0 / closures_drag.relaxation_time(gas.model, theta, slip, self.rho_s, gas.rho, gas.mu, gas.d,
+                                                   along_column=gas.column)
 
     def error_scale(self, t):
         """What errors of the scene's error field are relative to at time t [m/s or 1]: the amplitude left
         of a decaying flow (the scene's current_scale), else the fixed scale (the velocity scale, or
-        theta_0 for theta). The profile, the output files and ``parsph check`` all take it from here."""
+        theta_0 for theta); where that is 0 (no flow to measure against), 1: errors in m/s.
+        The profile, the output files and ``parsph check`` all take it from here."""
         if self.scene.current_scale is not None:
-            return float(self.scene.current_scale(self, t))
-        return self.velocity_scale if self.scene.error_field == "vy" else self.theta0
+            left = float(self.scene.current_scale(self, t))
+            if left > 0:
+                return left
+        scale = self.velocity_scale if self.scene.error_field == "vy" else self.theta0
+        return scale if scale > 0 else 1.0
 
     @property
     def reynolds(self):
@@ -185,6 +241,7 @@ def _wall_layers(v, lat, hkey, scene, kern):
 
 
 def _body_force(v, dim, scene):
+    """g per dimension: every scene honours it; a scene driven by a body force needs one."""
     g = v["body_force"]["g"]
     if g is None:
         g = (0.0,) * dim
@@ -195,13 +252,58 @@ def _body_force(v, dim, scene):
     return tuple(g)
 
 
+def _gas(v, dim, g, rho_s):
+    """The run's Gas, or None with gas.drag = "none" (then no other gas key may be given)."""
+    gas = v["gas"]
+    given = [key for key in ("rho", "mu", "flow", "velocity", "U") if gas[key] is not None]
+    if gas["drag"] == "none":
+        if given:
+            raise ConfigError(f"gas.{given[0]}", 'has no effect with gas.drag = "none": give gas.drag '
+                              f'({", ".join(closures_drag.MODELS)})')
+        return None
+    rho = AIR_RHO if gas["rho"] is None else gas["rho"]
+    mu = AIR_MU if gas["mu"] is None else gas["mu"]
+    if not rho < rho_s:
+        raise ConfigError("gas.rho", f"{rho:g} kg/m^3 is not below the solids' density material.rho_s = "
+                          f"{rho_s:g} kg/m^3: the grains would not sink in it")
+    flow = gas["flow"] or "stream"
+    velocity, U, axis, sign = (0.0,) * dim, 0.0, -1, 0.0
+    if flow == "stream":
+        if gas["U"] is not None:
+            raise ConfigError("gas.U", 'is the superficial velocity of a column: give gas.flow = "column", '
+                              "or the stream's gas.velocity")
+        if gas["velocity"] is not None:
+            velocity = gas["velocity"]
+            if len(velocity) != dim:
+                raise ConfigError("gas.velocity", f"needs {dim} components (one per dimension), got {len(velocity)}")
+    else:
+        if gas["velocity"] is not None:
+            raise ConfigError("gas.velocity", "is a stream's velocity: a column's gas velocity follows from "
+                              "gas.U and the solids' flux")
+        axes = [k for k in range(dim) if g[k] != 0.0]
+        if not axes:
+            raise ConfigError("body_force.g", "a gas column (gas.flow = \"column\") needs gravity: give a "
+                              "non-zero body_force.g")
+        if len(axes) > 1:
+            raise ConfigError("body_force.g", f"a gas column needs gravity along one axis, got {list(g)}")
+        axis = axes[0]
+        sign = -1.0 if g[axis] > 0 else 1.0
+        U = gas["U"] or 0.0
+    return Gas(gas["drag"], closures_drag.MODELS[gas["drag"]], float(rho), float(mu),
+               float(v["material"]["d"]), flow, tuple(float(x) for x in velocity), float(U), axis, sign,
+               v["numerics"]["drag_update"] == "implicit")
+
+
 def _time_step(v, cfg):
     """dt, whether it is automatic, the step count, the output times and the run's limits at theta_0."""
     mat, num, out = v["material"], v["numerics"], v["output"]
     theta0, g = cfg.theta0, cfg.g
+    # explicit drag at theta_0, its slip the run's velocity scale
+    drag_max = cfg.drag_coefficient(theta0, cfg.velocity_scale) if cfg.gas and not cfg.gas.implicit else 0.0
     try:
         # the run's limits at theta_0 (parsph.physics.limits): the refusal of a fixed dt and the first automatic dt
-        limits = dict(stability.run_limits(cfg, theta0, cfg.velocity_scale, math.sqrt(sum(x * x for x in g))))
+        limits = dict(stability.run_limits(cfg, theta0, cfg.velocity_scale, math.sqrt(sum(x * x for x in g)),
+                                           drag_max))
     except OverflowError:
         key = "material.G_a" if abs(mat["G_a"] * theta0) >= abs(mat["G_b"]) else "material.G_b"
         raise ConfigError(key, f"G(theta0) = 10^({mat['G_a']:g} theta0 + {mat['G_b']:g}) overflows") from None
@@ -237,13 +339,14 @@ def build(run_file):
     scene = get_scene(v["scene"]["name"])
     layers = _wall_layers(v, lat, hkey, scene, get_kernel(num["kernel"], dim))
     g = _body_force(v, dim, scene)
+    gas = _gas(v, dim, g, mat["rho_s"])
     theta0 = mat["theta0"]
     cfg = RunConfig(
         values=v, text=text, **lat, layers=layers,
         mass=mat["rho_s"] * theta0 * lat["dx"] * lat["dy"] * (lat["dz"] if dim == 3 else 1.0), rho_s=mat["rho_s"],
         theta0=theta0, k=mat["k"], G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
         kernel=num["kernel"], dt=0.0, dt_auto=False, t_end=out["t_end"], nsteps=0, output_times=(),
-        integrator=num["integrator"], g=g, scene=scene,
+        integrator=num["integrator"], g=g, scene=scene, gas=gas,
         pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
         viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
     return replace(cfg, **_time_step(v, cfg))

@@ -10,9 +10,12 @@ from parsph.errors import ConfigError
 from parsph.sph.integrators import INTEGRATORS
 from parsph.physics.closures import G_A, G_B
 from parsph.physics.kernels import KERNEL_NAMES
+from parsph.physics.drag import MODELS
 from .scenes import SCENE_NAMES
 
 REQUIRED = object()
+DRAG_CLOSURES = ("none",) + tuple(MODELS)
+DRAG_UPDATES = ("explicit", "implicit")
 
 
 @dataclass(frozen=True)
@@ -48,6 +51,7 @@ SCHEMA = {
         "k": Key("float", REQUIRED, nonnegative=True, doc="viscosity coefficient, mu_s = k theta [Pa s]"),
         "G_a": Key("float", G_A, doc="G = 10^(G_a theta + G_b) [Pa]"),
         "G_b": Key("float", G_B, doc="G = 10^(G_a theta + G_b) [Pa]"),
+        "d": Key("float", 3.0e-4, positive=True, doc="grain diameter [m] (the gas's drag; Table 1's d_s)"),
     },
     "walls": {
         "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
@@ -71,11 +75,27 @@ SCHEMA = {
         "skin": Key("float", 0.4, positive=True, hi=4.0,
                     doc="neighbour-list skin in units of h: the list holds pairs within 2h + skin and is "
                         "rebuilt when particles near each other moved more than the skin relative to each other"),
+        "drag_update": Key("str", "implicit", choices=DRAG_UPDATES,
+                           doc="the gas's drag in the step: explicit (Eq. (7) as it is; stable for dt < 2 tau) "
+                               "or implicit in v with beta frozen over the step (any dt)"),
         "viscosity_form": Key("str", "paper", choices=("paper", "symmetric"),
                               doc="mu_i = k theta_i (paper) or the pair mean k (theta_i + theta_j)/2"),
     },
     "body_force": {
         "g": Key("floatlist", None, doc="body force per unit mass [m/s^2], one entry per dimension"),
+    },
+    "gas": {
+        "drag": Key("str", "none", choices=DRAG_CLOSURES,
+                    doc="the gas's drag on the solids: none (the paper's case), or its closure"),
+        "rho": Key("float", None, nonnegative=True, doc="gas density [kg/m^3] (default 1.2, air)"),
+        "mu": Key("float", None, positive=True, doc="gas viscosity [Pa s] (default 1.8e-5, air)"),
+        "flow": Key("str", None, choices=("stream", "column"),
+                    doc="the gas velocity: a given stream, or a column fed at superficial velocity U against "
+                        "gravity (default stream)"),
+        "velocity": Key("floatlist", None, doc="stream: the gas velocity, one entry per dimension [m/s] "
+                                               "(default at rest)"),
+        "U": Key("float", None, nonnegative=True,
+                 doc="column: superficial gas velocity along the axis opposite to gravity [m/s] (default 0)"),
     },
     "output": {
         "t_end": Key("float", REQUIRED, positive=True, doc="end time [s]"),

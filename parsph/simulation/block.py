@@ -38,7 +38,8 @@ from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wa
 from parsph.sph import equations
 from parsph.sph import integrators
 from parsph.sph.neighbours import block_spread
-from parsph.sph.particles import state_maxima
+from parsph.sph.particles import drag_maximum, state_maxima
+from parsph.physics.limits import state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
 
 EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = range(9)
@@ -53,7 +54,11 @@ N_ICTL = 4
 # timers (float64 seconds), in the solver's phase names
 TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
 SYNC, DENSITY, HALO, FORCES, INTEGRATE, CHECKS = range(6)
-N_SCRATCH = 6 + 6 + N_REPORT + N_FASTEST + 4  # run_block's buffers
+# scratch (float64): the all-reduces' buffers of run_block, by name
+FLAGS, FLAGS_ALL = slice(0, 3), slice(3, 6)        # a sync's (bad, stop, rebuild), and their agreed values
+MAXIMA, MAXIMA_ALL = slice(6, 10), slice(10, 14)   # the auto rule's (|v|, theta, |a|, drag C) maxima
+THETA_MAX_ALL = 11                                 # the agreed largest theta (maxima_all[1])
+N_SCRATCH = 14 + N_REPORT + N_FASTEST + 4
 
 
 class Motion(NamedTuple):
@@ -83,6 +88,8 @@ class Modes(NamedTuple):
     midpoint: tuple
     dt_auto: tuple
     threaded: tuple
+    implicit: tuple   # the gas's drag implicit in v (numerics.drag_update; integrators)
+    drag_limit: tuple  # the auto rule's drag limit dt <= 1/C_max (explicit drag)
 
 
 @njit(cache=True)
@@ -159,22 +166,22 @@ def bucket_index(theta_max, theta_step, nbuckets):
 
 
 @njit(cache=True)
-def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all):
-    """The auto rule's dt (safety x the smallest of the linear, advection and force limits), or -1 when
-    the linear limit of the largest theta's bucket is not in ``rule.linear`` yet; -2 on an MPI error."""
+def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all, drag_limit):
+    """The auto rule's dt (safety x the smallest of the linear, advection, force and, with ``drag_limit``,
+    drag limits: :func:`parsph.physics.limits.state_limits`), or -1 when the linear limit of the largest
+    theta's bucket is not in ``rule.linear`` yet; -2 on an MPI error."""
     v, th, a = state_maxima(parts.vel, parts.acc, parts.theta, parts.kind, parts.n_own, rule.theta0)
     maxima[0] = v
     maxima[1] = th
     maxima[2] = a
+    maxima[3] = drag_maximum(parts.drag, parts.kind, parts.n_own) if len(drag_limit) else 0.0
     if allreduce(plan.h, OP_MAX, maxima, maxima_all) != 0:
         return -2.0
     vmax, theta_max, amax = maxima_all[0], min(maxima_all[1], 0.999), maxima_all[2]
     linear = rule.linear[bucket_index(theta_max, rule.theta_step, len(rule.linear))]
     if linear != linear:  # NaN: not computed yet
         return -1.0
-    advection = 0.5 * rule.h / vmax if vmax > 0 else np.inf
-    force = 0.25 * math.sqrt(rule.h / amax) if amax > 0 else np.inf
-    return rule.safety * min(linear, advection, force)
+    return rule.safety * min(linear, state_limit(rule.h, vmax, amax, maxima_all[3]))
 
 
 @njit(cache=True)
@@ -232,13 +239,13 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     (guards.Limits); ``timers`` gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the
     all-reduces' buffers; ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
     """
-    flags, flags_all = scratch[0:3], scratch[3:6]
-    maxima, maxima_all = scratch[6:9], scratch[9:12]
-    report = scratch[12:12 + N_REPORT]
-    fastest = scratch[12 + N_REPORT:12 + N_REPORT + N_FASTEST]
-    sums = scratch[12 + N_REPORT + N_FASTEST:14 + N_REPORT + N_FASTEST]
-    sums_all = scratch[14 + N_REPORT + N_FASTEST:16 + N_REPORT + N_FASTEST]
-    pos, vel, acc, kind = parts.pos, parts.vel, parts.acc, parts.kind
+    flags, flags_all = scratch[FLAGS], scratch[FLAGS_ALL]
+    maxima, maxima_all = scratch[MAXIMA], scratch[MAXIMA_ALL]
+    report = scratch[14:14 + N_REPORT]
+    fastest = scratch[14 + N_REPORT:14 + N_REPORT + N_FASTEST]
+    sums = scratch[14 + N_REPORT + N_FASTEST:16 + N_REPORT + N_FASTEST]
+    sums_all = scratch[16 + N_REPORT + N_FASTEST:18 + N_REPORT + N_FASTEST]
+    pos, vel, acc, kind, drag, implicit = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag, modes.implicit
     n_own = parts.n_own
     ictl[STEPS_DONE] = 0
     if ctl[EVAL_FIRST] != 0.0:  # the rates of the state as it is (a list was just built)
@@ -249,7 +256,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         # -- the step's dt
         land = False
         if len(modes.dt_auto):
-            dt = _auto_dt(plan, parts, rule, ctl, maxima, maxima_all)
+            dt = _auto_dt(plan, parts, rule, ctl, maxima, maxima_all, modes.drag_limit)
             if dt == -2.0:
                 return MPI_ERROR
             if dt < 0.0:
@@ -269,10 +276,10 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         if len(modes.midpoint):
             if len(modes.threaded):
                 bad = integrators.midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                   motion.jump, rule.h)
+                                                   motion.jump, rule.h, drag, implicit)
             else:
                 bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                          motion.jump, rule.h)
+                                                          motion.jump, rule.h, drag, implicit)
             timers[INTEGRATE] += wtime() - t0
             code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
                                   flags, flags_all, bad, rule.skin, timers, True, req, stat)
@@ -281,14 +288,14 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             t0 = wtime()
             if len(modes.threaded):
                 bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                   motion.jump, rule.h)
+                                                   motion.jump, rule.h, drag, implicit)
             else:
                 bad = integrators.midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                          motion.jump, rule.h)
+                                                          motion.jump, rule.h, drag, implicit)
         elif len(modes.threaded):
-            bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h)
+            bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         else:
-            bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h)
+            bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         ictl[STEP] += 1
         ictl[STEPS_DONE] += 1
         if len(modes.dt_auto):

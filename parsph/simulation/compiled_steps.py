@@ -53,7 +53,8 @@ class CompiledSteps:
             mid = cfg.integrator == "midpoint"
             motion = Motion(ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self._no_state,
                             ps.vel0 if mid else self._no_state)
-            modes = Modes(pass_data.switch(mid), pass_data.switch(cfg.dt_auto), pass_data.switch(threaded))
+            sw = pass_data.switch
+            modes = Modes(sw(mid), sw(cfg.dt_auto), sw(threaded), self._implicit, sw(self.explicit_drag))
             self._block_modes = modes
             self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
                                 N.local, N.box, N.work, R.consts, R.switches,
@@ -131,7 +132,7 @@ class CompiledSteps:
         """The rest of a step a block returned in: act on the agreed flags (checks, rebuild), the rates
         (a compiled evaluation of the new list); at the midpoint, the second half and the step's last
         sync too."""
-        self._act(self._scratch[3:6].copy())
+        self._act(self._scratch[block.FLAGS_ALL].copy())
         self._evaluate_compiled()
         if code in (block.REBUILD_MID, block.BAD_MID):
             self._count_step(self.dt, self._correct(self.dt))
@@ -153,7 +154,7 @@ class CompiledSteps:
     def _new_limit(self):
         """The linear limit of the bucket the agreed largest theta is in, into the rule's table (the auto
         rule, Python's side)."""
-        theta_max = min(float(self._scratch[10]), 0.999)
+        theta_max = min(float(self._scratch[block.THETA_MAX_ALL]), 0.999)
         table = self._rule.linear
         lim = limits.run_limits(self.cfg, theta_max, 0.0, 0.0)  # limits rounds theta up to its bucket
         table[block.bucket_index(theta_max, limits.THETA_STEP, len(table))] = min(lim.values())

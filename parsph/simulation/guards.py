@@ -44,9 +44,19 @@ class Limits(NamedTuple):
     ke_bound: float     # check 4: the scene's bound at the run's fluid mass (inf: checks.energy off)
 
 
+def energy_bound(cfg, fluid_mass):
+    """Check 4's bound [J/m]: the scene's, where it holds. A scene's bound counts only the forces it
+    declares: with a gas, or a body force the scene is not driven by (a periodic box that falls freely),
+    there is none (inf), and checks 1, 3 and 5 catch a blow-up."""
+    undeclared = any(cfg.g) and not cfg.scene.terms.body_force
+    if cfg.gas is not None or undeclared:
+        return math.inf
+    return cfg.scene.max_kinetic_energy(cfg, fluid_mass)
+
+
 def limits_of(cfg, fluid_mass):
     """The Limits of a run whose fluid (over all ranks) has mass ``fluid_mass``."""
-    bound = cfg.scene.max_kinetic_energy(cfg, fluid_mass) if cfg.get("checks.energy") else math.inf
+    bound = energy_bound(cfg, fluid_mass) if cfg.get("checks.energy") else math.inf
     return Limits(int(cfg.get("checks.every")), bool(cfg.scene.walls), float(cfg.L), float(cfg.theta0),
                   float(cfg.get("checks.theta_change") * cfg.theta0), float(cfg.h), float(bound))
 
@@ -134,7 +144,7 @@ class Reading:
         """{criterion: whether it fails}: beyond a wall, theta_dev above theta_frac, the kinetic energy
         above the scene's bound (the checks' own thresholds, but theta's, which is the caller's)."""
         return {"nonfinite": self.nonfinite, "wall": self.depth > 0, "theta": not self.theta_dev <= theta_frac,
-                "energy": not self.kinetic_energy <= cfg.scene.max_kinetic_energy(cfg, self.mass)}
+                "energy": not self.kinetic_energy <= energy_bound(cfg, self.mass)}
 
 
 def read(fields, cfg, theta_ref=None, acc=None):

@@ -37,7 +37,7 @@ from parsph.physics.kernels import get_kernel
 from parsph.physics.lattice_sums import lattice_sum
 from parsph.sph.neighbours import grid_for
 from parsph.output import Frame, read_particles
-from parsph.sph.particles import FLUID, Particles, state_maxima
+from parsph.sph.particles import FLUID, Particles, drag_maximum, state_maxima
 from parsph.sph.profiles import bin_centres, bin_sums, errors
 from parsph.sph.rates import Rates
 from parsph.sph.neighbour_list import NeighbourList
@@ -78,9 +78,13 @@ class Simulation(CompiledSteps):
             ps.add_field("vel0")
             self.position_fields = ("pos", "pos0")
         self._hold_wall_density()
-        self.g = np.zeros(3)
-        if self.scene.terms.body_force:
-            self.g[:cfg.dim] = cfg.g
+        self.gas = cfg.gas
+        self.g = np.zeros(3)  # every scene honours body_force.g; in a gas, with buoyancy (PHYSICS.md)
+        self.g[:cfg.dim] = cfg.g
+        if self.gas is not None:
+            self.g *= 1.0 - self.gas.rho / cfg.rho_s
+            ps.add_field("drag")
+        self._implicit = pass_data.switch(self.gas is not None and self.gas.implicit)
         self.period_x = 0.0 if walls else cfg.L
         self.step = 0 if state is None else int(state["attrs"]["step"])
         self.t = 0.0 if state is None else float(state["attrs"]["time"])
@@ -114,12 +118,22 @@ class Simulation(CompiledSteps):
         w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
         mass = self._the_one_mass()
         consts = pass_data.Constants(kernel.kid, inv_h, norm, w0, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L,
-                                     cfg.beta_max, np.asarray(self.g, float), mass)
+                                     cfg.beta_max, np.asarray(self.g, float), mass, self._gas_constants())
         switches = pass_data.Switches(sw(cfg.pressure), sw(cfg.viscosity),
                                       sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(self.scene.walls),
                                       sw(cfg.get("numerics.pressure_form") == "consistent"), sw(cfg.dim == 3),
-                                      sw(mass > 0.0))
+                                      sw(mass > 0.0), sw(self.gas is not None))
         return consts, switches
+
+    def _gas_constants(self):
+        """The gas as the loops take it (pass_data.GasConstants; zeros without a gas)."""
+        gas = self.gas
+        if gas is None:
+            return pass_data.GasConstants(0, 0.0, 0.0, 0.0, 0, 0, 0.0, 0.0, np.zeros(3))
+        u = np.zeros(3)
+        u[:len(gas.velocity)] = gas.velocity
+        return pass_data.GasConstants(gas.model, gas.rho, gas.mu, gas.d, int(gas.column), max(gas.axis, 0),
+                                      gas.sign, gas.U, u)
 
     def _the_one_mass(self):
         """The mass every particle of the run has, or 0.0 where they differ (over all ranks; a run neither
@@ -242,11 +256,13 @@ class Simulation(CompiledSteps):
         ps, T, cfg = self.ps, self.timers, self.cfg
         t0 = self.clock()
         n = ps.n_own
+        drag = pass_data.particle_arrays(ps).drag
         if cfg.integrator == "paper":
-            bad = integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h)
+            bad = integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h, drag, self._implicit)
             T["integrate"] += self.clock() - t0
         else:
-            bad = integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h)
+            bad = integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.pos0, ps.vel0, ps.jump, cfg.h,
+                                               drag, self._implicit)
             T["integrate"] += self.clock() - t0
             self._bad = bad
             self.compute_rates()
@@ -260,7 +276,7 @@ class Simulation(CompiledSteps):
         ps, cfg = self.ps, self.cfg
         t0 = self.clock()
         bad = integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
-                                           ps.jump, cfg.h)
+                                           ps.jump, cfg.h, pass_data.particle_arrays(ps).drag, self._implicit)
         self.timers["integrate"] += self.clock() - t0
         return bad
 
@@ -272,10 +288,16 @@ class Simulation(CompiledSteps):
     def stable_dt(self):
         """The largest stable step for the current state (global minimum over ranks)."""
         ps, cfg = self.ps, self.cfg
-        local = np.array(state_maxima(ps.vel, ps.acc, ps.theta, ps.kind, ps.n_own, cfg.theta0))
-        vmax, theta_max, amax = self.collect.max(local)
+        cmax = drag_maximum(ps.drag, ps.kind, ps.n_own) if self.explicit_drag else 0.0
+        local = np.array([*state_maxima(ps.vel, ps.acc, ps.theta, ps.kind, ps.n_own, cfg.theta0), cmax])
+        vmax, theta_max, amax, cmax = self.collect.max(local)
         theta_max = min(theta_max, 0.999)
-        return limits.stable_dt(cfg, theta_max, vmax, amax)[0]   # config.build's limits, at the current state
+        return limits.stable_dt(cfg, theta_max, vmax, amax, cmax)[0]   # config.build's limits, at the current state
+
+    @property
+    def explicit_drag(self):
+        """A gas whose drag the step takes explicitly: the auto rule's drag limit applies."""
+        return self.gas is not None and not self.gas.implicit
 
     # ---- reductions ------------------------------------------------------------
     def profile(self):

@@ -74,6 +74,7 @@ import numpy as np
 from numba import njit, prange, uintp
 
 from parsph.physics.closures import half_modulus, modulus_unchecked
+from parsph.physics.drag import beta
 from parsph.physics.kernels import kernel_w_f
 from .particles import FLUID
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
@@ -327,7 +328,7 @@ def momentum_serial(lst, parts, c, sw):
     order, cstart, cj, cf, n, fields, need = lst.order, lst.cstart, lst.cj, lst.cf, lst.n, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
     rho_s, G_b, k_visc, L, beta_max, g, m_all = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g, c.mass
-    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass = sw
+    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass, drag_on = sw
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for k in range(n):
@@ -405,19 +406,21 @@ def momentum_serial(lst, parts, c, sw):
             acc[i, 1] = ay
             if len(three_d):
                 acc[i, 2] = az
-    _finish_acc(acc, kind, g, three_d, n_own)
+    _finish_acc(acc, kind, g, three_d, n_own, drag_on, parts.vel, parts.theta, rho_s, c.gas, parts.drag)
 
 
 @njit(cache=True)
-def _finish_acc(acc, kind, g, three_d, n_own):
-    """Owned fluid particles: + g; owned walls: zero (one call: an inlined call per particle would count
-    references to its arrays every time)."""
+def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, drag):
+    """Owned fluid particles: + g, + the gas's drag (:func:`add_drag`, with ``drag_on``); owned walls: zero
+    (one call: an inlined call per particle would count references to its arrays every time)."""
     for k in range(n_own):
         if kind[k] == FLUID:
             acc[k, 0] += g[0]
             acc[k, 1] += g[1]
             if len(three_d):
                 acc[k, 2] += g[2]
+            if len(drag_on):
+                add_drag(k, vel, theta, rho_s, gas, acc, drag)
         else:
             acc[k, 0] = 0.0
             acc[k, 1] = 0.0
@@ -425,10 +428,59 @@ def _finish_acc(acc, kind, g, three_d, n_own):
                 acc[k, 2] = 0.0
 
 
+# ---- the gas's drag (PHYSICS.md, "The solid phase in a gas") -------------------------------------------
+@njit(cache=True, inline="always")
+def add_drag(k, vel, theta, rho_s, gas, acc, drag):
+    """:func:`drag_plain` with the gas as its named group (pass_data.GasConstants)."""
+    drag_plain(k, vel, theta, rho_s, gas.model, gas.rho, gas.mu, gas.d, gas.column, gas.axis, gas.sign, gas.U,
+               gas.u, acc, drag)
+
+
+@njit(cache=True, inline="always")
+def drag_plain(k, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, sign, U, u, acc, drag):
+    """The drag on fluid particle k, beside Eq. (5)'s sums and gravity with buoyancy (Constants.g):
+
+        dv_k/dt += beta_k (u_g,k - v_k) / (rho_s theta_k eps_k),   eps = 1 - theta,
+
+    theta_k from Eq. (3), beta_k the closure's (:func:`parsph.physics.drag.beta`) at |u_g,k - v_k|.
+    Written per component as C (w - v_k) with K = beta / (rho_s theta eps): a stream has C = K and
+    w = u_g; a column (gas fed at U along e, opposite to gravity) has u_g.e = (U - theta v.e) / eps, so
+    along e C = K / eps and w = U e, across it C = K and w = 0. ``drag[k]`` keeps C per component,
+    what the implicit update divides by (:mod:`parsph.sph.integrators`) and the auto rule reads.
+    Plain arguments: the threaded pass calls it inside a parallel loop, which misreads named tuples' arrays."""
+    th = theta[k]
+    eps = 1.0 - th
+    dim = vel.shape[1]
+    slip2 = 0.0
+    if column:
+        for d in range(dim):
+            if d == axis:
+                s = (sign * U - vel[k, d]) / eps
+            else:
+                s = vel[k, d]
+            slip2 += s * s
+    else:
+        for d in range(dim):
+            s = u[d] - vel[k, d]
+            slip2 += s * s
+    K = beta(model, th, math.sqrt(slip2), rho_g, mu_g, d_grain) / (rho_s * th * eps)
+    for d in range(dim):
+        C = K
+        w = u[d]
+        if column:
+            w = 0.0
+            if d == axis:
+                C = K / eps
+                w = sign * U
+        acc[k, d] += C * (w - vel[k, d])
+        drag[k, d] = C
+
+
 @njit(cache=True, parallel=True, error_model="numpy")
 def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
                       k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
-                      Pp, Vp, offset, entry):
+                      Pp, Vp, offset, entry, drag_on, vel, theta, model, rho_g, mu_g, d_grain, column, axis, sign,
+                      U, u, drag):
     """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`)."""
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
@@ -500,6 +552,8 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         acc[k, 1] = ay
         if len(three_d):
             acc[k, 2] = az
+        if len(drag_on) and kind[k] == FLUID:
+            drag_plain(k, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, sign, U, u, acc, drag)
 
 
 @njit(cache=True)
@@ -509,4 +563,6 @@ def momentum_threaded(lst, parts, c, sw, gather):
     _momentum_threaded(lst.order, lst.pstart, lst.pi, lst.pj, lst.n, lst.npairs, lst.fp, parts.pos, parts.mass,
                        parts.kind, lst.fields, lst.need, parts.n_own, c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max,
                        c.g, sw.pressure, sw.viscosity, sw.symmetric_mu, sw.walls, sw.consistent, sw.three_d,
-                       parts.acc, gather.Pp, gather.Vp, gather.offset, gather.entry)
+                       parts.acc, gather.Pp, gather.Vp, gather.offset, gather.entry, sw.drag, parts.vel,
+                       parts.theta, c.gas.model, c.gas.rho, c.gas.mu, c.gas.d, c.gas.column, c.gas.axis, c.gas.sign,
+                       c.gas.U, c.gas.u, parts.drag)

@@ -7,6 +7,19 @@
     r* = r^n + dt/2 v^n,  v* = v^n + dt/2 R(r^n, v^n)
     r^{n+1} = r^n + dt v*,  v^{n+1} = v^n + dt R(r*, v*).
 
+With a gas and ``numerics.drag_update = "implicit"`` (the switch ``implicit``), the drag is implicit in v
+with beta frozen over the step: the acceleration ``acc`` holds the explicit rate R + C (w - v) of
+:func:`parsph.sph.equations.drag_plain`, and ``drag`` its coefficient C per component, so that
+
+    paper:     v^{n+1} = v^n + dt (R^n + C^n (w - v^{n+1}))         -> a = acc / (1 + dt C)
+    midpoint:  v*      = v^n + dt/2 (R^n + C^n (w - v*))            -> a = acc / (1 + dt/2 C)
+               v^{n+1} = v^n + dt (R* + C* (w - (v^n + v^{n+1})/2))  -> a = (acc* + C* (v* - v^n)) / (1 + dt/2 C*)
+
+and the update uses a in place of acc (positions too). Backward Euler in the drag keeps "paper" first
+order and damps a stiff slip in one step (L-stable); the trapezoidal rule keeps "midpoint" second
+order (A-stable: a slip with dt >> tau alternates in sign as it decays, by (1 - dt/2tau)/(1 + dt/2tau)
+a step). Explicit drag needs no change here: it is in acc.
+
 Wall particles move with their prescribed velocity (r += dt v). Positions
 are not wrapped into the periodic box here: particles stay where they are
 until the next rebuild of the neighbour list, which wraps them. Each function
@@ -26,7 +39,7 @@ INTEGRATORS = ("paper", "midpoint")
 
 
 @njit(cache=True, inline="always")
-def _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit):
+def _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit, drag, implicit):
     """Eqs. (6)-(7) for particle i; 1 if it left a bad state (non-finite, or a jump beyond ``limit``).
 
     (One loop over the components with an integer flag: a tuple of the old position, a further call
@@ -37,8 +50,11 @@ def _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit):
     for d in range(pos.shape[1]):
         old = pos[i, d]
         if fluid:
-            pos[i, d] += dt * vel[i, d] + half_dt2 * acc[i, d]
-            vel[i, d] += dt * acc[i, d]
+            a = acc[i, d]
+            if len(implicit):
+                a = a / (1.0 + dt * drag[i, d])
+            pos[i, d] += dt * vel[i, d] + half_dt2 * a
+            vel[i, d] += dt * a
         else:
             pos[i, d] += dt * vel[i, d]
         moved += (pos[i, d] - old) ** 2
@@ -51,7 +67,7 @@ def _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit):
 
 
 @njit(cache=True, inline="always")
-def _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit):
+def _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit):
     """Save (r^n, v^n) of particle i and move it to the midpoint state."""
     fluid = kind[i] == FLUID
     moved = 0.0
@@ -62,7 +78,10 @@ def _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit):
         vel0[i, d] = vel[i, d]
         pos[i, d] += 0.5 * dt * vel[i, d]
         if fluid:
-            vel[i, d] += 0.5 * dt * acc[i, d]
+            a = acc[i, d]
+            if len(implicit):
+                a = a / (1.0 + 0.5 * dt * drag[i, d])
+            vel[i, d] += 0.5 * dt * a
         moved += (pos[i, d] - old) ** 2
         if not (math.isfinite(pos[i, d]) and math.isfinite(vel[i, d])):
             ok = 0
@@ -73,7 +92,7 @@ def _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit):
 
 
 @njit(cache=True, inline="always")
-def _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit):
+def _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*) for particle i (its jump from r^n)."""
     fluid = kind[i] == FLUID
     moved = 0.0
@@ -81,7 +100,10 @@ def _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit):
     for d in range(pos.shape[1]):
         pos[i, d] = pos0[i, d] + dt * vel[i, d]
         if fluid:
-            vel[i, d] = vel0[i, d] + dt * acc[i, d]
+            a = acc[i, d]
+            if len(implicit):
+                a = (a + drag[i, d] * (vel[i, d] - vel0[i, d])) / (1.0 + 0.5 * dt * drag[i, d])
+            vel[i, d] = vel0[i, d] + dt * a
         moved += (pos[i, d] - pos0[i, d]) ** 2
         if not (math.isfinite(pos[i, d]) and math.isfinite(vel[i, d])):
             ok = 0
@@ -94,29 +116,29 @@ def _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit):
 # Each integrator threaded (prange) and serial: the same arithmetic per particle; the serial one saves the
 # parallel region's start (about 1 us a call on one thread) in the compiled step.
 @njit(cache=True, parallel=True)
-def step_paper(pos, vel, acc, kind, n_own, dt, jump, limit):
+def step_paper(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit):
     """Eqs. (6)-(7)."""
     half_dt2 = 0.5 * dt * dt
     bad = 0
     for i in prange(n_own):
-        bad += _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit)
+        bad += _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit, drag, implicit)
     return bad
 
 
 @njit(cache=True)
-def step_paper_serial(pos, vel, acc, kind, n_own, dt, jump, limit):
+def step_paper_serial(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit):
     """:func:`step_paper` on one thread."""
     if pos.shape[1] == 2:
-        return _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit)
+        return _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit)
     half_dt2 = 0.5 * dt * dt
     bad = 0
     for i in range(n_own):
-        bad += _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit)
+        bad += _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit, drag, implicit)
     return bad
 
 
 @njit(cache=True, error_model="numpy")
-def _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit):
+def _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit):
     """:func:`_paper_one`'s arithmetic for 2-D, bit for bit, without a branch: both components written out
     (no loop over a run-time dimension), the wall's update a select, the flags combined with ``&``;
     twice as fast as the loop over the components."""
@@ -130,6 +152,9 @@ def _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit):
         vy = vel[k, 1]
         ax = acc[k, 0]
         ay = acc[k, 1]
+        if len(implicit):
+            ax = ax / (1.0 + dt * drag[k, 0])
+            ay = ay / (1.0 + dt * drag[k, 1])
         x1 = x0 + (dt * vx + half_dt2 * ax) if fluid else x0 + dt * vx
         y1 = y0 + (dt * vy + half_dt2 * ay) if fluid else y0 + dt * vy
         vx1 = vx + dt * ax if fluid else vx
@@ -147,36 +172,36 @@ def _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit):
 
 
 @njit(cache=True, parallel=True)
-def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit):
+def midpoint_predict(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
     """Save (r^n, v^n) and move to the midpoint state (r*, v*)."""
     bad = 0
     for i in prange(n_own):
-        bad += _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit)
+        bad += _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit)
     return bad
 
 
 @njit(cache=True)
-def midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit):
+def midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
     """:func:`midpoint_predict` on one thread."""
     bad = 0
     for i in range(n_own):
-        bad += _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit)
+        bad += _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit)
     return bad
 
 
 @njit(cache=True, parallel=True)
-def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit):
+def midpoint_correct(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*)."""
     bad = 0
     for i in prange(n_own):
-        bad += _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit)
+        bad += _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit)
     return bad
 
 
 @njit(cache=True)
-def midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit):
+def midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
     """:func:`midpoint_correct` on one thread."""
     bad = 0
     for i in range(n_own):
-        bad += _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit)
+        bad += _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit)
     return bad

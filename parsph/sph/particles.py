@@ -18,6 +18,7 @@ Fields:
     rho, theta           summation density Eq. (3), volume fraction
     disp                 displacement since the last rebuild (the list's validity test)
     jump                 length of the last step's displacement (run-time check 5)
+    drag                 with a gas: the drag coefficient per component (pass_data.ParticleArrays.drag)
 """
 import math
 
@@ -26,7 +27,7 @@ from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 # recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
-DERIVED = ("acc", "theta", "disp")
+DERIVED = ("acc", "theta", "disp", "drag")
 
 
 class Particles:
@@ -178,3 +179,15 @@ def state_maxima(vel, acc, theta, kind, n, theta_floor):
         if kind[i] == FLUID and not theta[i] <= th:
             th = theta[i]
     return math.sqrt(v2), th, math.sqrt(a2)
+
+
+@njit(cache=True)
+def drag_maximum(drag, kind, n):
+    """The largest drag coefficient C [1/s] of fluid particles 0..n-1 (NaN propagates)."""
+    c = 0.0
+    for i in range(n):
+        if kind[i] == FLUID:
+            for d in range(drag.shape[1]):
+                if not drag[i, d] <= c:
+                    c = drag[i, d]
+    return c

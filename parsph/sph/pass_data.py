@@ -32,6 +32,20 @@ class Switches(NamedTuple):
     consistent: tuple    # pressure as the symmetric SPH gradient of p = G / (G_a ln 10)
     three_d: tuple
     uniform_mass: tuple  # every particle of the run has the mass Constants.mass: the serial passes load none
+    drag: tuple          # the solids are in a gas (Constants.gas): drag per particle, gravity with buoyancy
+
+
+class GasConstants(NamedTuple):
+    """The gas of a run with drag (config.Gas) as the loops take it (zeros where there is none)."""
+    model: int        # parsph.physics.drag.MODELS
+    rho: float        # [kg/m^3]
+    mu: float         # [Pa s]
+    d: float          # grain diameter [m]
+    column: int       # 1: a column (the gas velocity follows from U); 0: a stream
+    axis: int         # column: the axis of gravity
+    sign: float       # column: e = sign * unit(axis), opposite to gravity
+    U: float          # column: superficial velocity [m/s]
+    u: np.ndarray     # stream: the gas velocity, 3 components [m/s]
 
 
 class Constants(NamedTuple):
@@ -46,8 +60,9 @@ class Constants(NamedTuple):
     k_visc: float      # mu_s = k theta
     L: float           # distance of the plates (beta)
     beta_max: float
-    g: np.ndarray      # body force, 3 components
+    g: np.ndarray      # body force, 3 components (with a gas: (1 - rho_g / rho_s) g, buoyancy included)
     mass: float        # every particle's mass where Switches.uniform_mass is on (else unused)
+    gas: GasConstants  # the gas where Switches.drag is on (else zeros)
 
 
 class PairList(NamedTuple):
@@ -86,8 +101,14 @@ class ParticleArrays(NamedTuple):
     theta: np.ndarray
     acc: np.ndarray
     n_own: int
+    drag: np.ndarray   # with drag: per owned particle and component the coefficient C of its drag
+                       # acceleration C (w - v) (1/tau; the implicit update divides by 1 + dt C); else (0, dim)
 
 
 def particle_arrays(ps):
-    """The passes' view of a Particles set (its arrays, not copies)."""
-    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own)
+    """The passes' view of a Particles set (its arrays, not copies); ``drag`` is the set's field of that name
+    where the run has a gas (:meth:`parsph.sph.particles.Particles.add_field`), else an empty array."""
+    drag = getattr(ps, "drag", None)
+    if drag is None:
+        drag = np.zeros((0, ps.dim))
+    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own, drag)

@@ -1,0 +1,59 @@
+"""The gas's drag on the solids (PHYSICS.md, "The solid phase in a gas"): the interphase coefficient beta.
+
+The solids feel ``+beta (u_g - v)`` per unit volume; ``slip`` below is |u_g - v| [m/s],
+``theta`` the solids' volume fraction, eps = 1 - theta, ``d`` the grain diameter:
+
+- Stokes limit of Wen & Yu (Re -> 0): ``beta = 18 mu_g theta eps^-2.65 / d^2``, independent of the slip;
+- Wen & Yu (1966), Re = eps rho_g slip d / mu_g:
+  ``18 mu_g theta eps^-2.65 / d^2 (1 + 0.15 Re^0.687)`` for Re < 1000,
+  ``0.33 rho_g theta eps^-1.65 slip / d`` above (C_D = 0.44);
+- Gidaspow (1994) with MFiX's blend of its two branches at eps = 0.8:
+  Ergun ``150 theta^2 mu_g / (eps d^2) + 1.75 theta rho_g slip / d``,
+  phi = atan(150 * 1.75 (eps - 0.8)) / pi + 0.5, beta = (1 - phi) Ergun + phi Wen & Yu.
+  The blend is used (not the jump) so that beta is continuous in theta: the hindered settling root
+  and an implicit update see no step.
+
+numba functions (the step's loops call them per particle) that work from Python too.
+"""
+import math
+
+from numba import njit
+
+STOKES, WEN_YU, GIDASPOW = 0, 1, 2
+MODELS = {"stokes": STOKES, "wen_yu": WEN_YU, "gidaspow": GIDASPOW}
+
+
+@njit(cache=True)
+def wen_yu(theta, slip, rho_g, mu_g, d):
+    """Wen & Yu's beta [kg/(m^3 s)]."""
+    eps = 1.0 - theta
+    re = eps * rho_g * slip * d / mu_g
+    if re < 1000.0:
+        return 18.0 * mu_g * theta * eps ** -2.65 / (d * d) * (1.0 + 0.15 * re ** 0.687)
+    return 0.33 * rho_g * theta * eps ** -1.65 * slip / d
+
+
+@njit(cache=True)
+def beta(model, theta, slip, rho_g, mu_g, d):
+    """beta [kg/(m^3 s)] of closure ``model`` (:data:`MODELS`)."""
+    eps = 1.0 - theta
+    if model == STOKES:
+        return 18.0 * mu_g * theta * eps ** -2.65 / (d * d)
+    wy = wen_yu(theta, slip, rho_g, mu_g, d)
+    if model == WEN_YU:
+        return wy
+    ergun = 150.0 * theta * theta * mu_g / (eps * d * d) + 1.75 * theta * rho_g * slip / d
+    phi = math.atan(150.0 * 1.75 * (eps - 0.8)) / math.pi + 0.5
+    return (1.0 - phi) * ergun + phi * wy
+
+
+def terminal_velocity(rho_s, rho_g, g, d, mu_g):
+    """u_t = (rho_s - rho_g) |g| d^2 / (18 mu_g) [m/s]: Stokes's terminal velocity of one grain."""
+    return (rho_s - rho_g) * abs(g) * d * d / (18.0 * mu_g)
+
+
+def relaxation_time(model, theta, slip, rho_s, rho_g, mu_g, d, along_column=False):
+    """tau [s] with which drag relaxes the slip: rho_s theta eps / beta (a stream, or across a column),
+    rho_s theta eps^2 / beta along a column's axis."""
+    eps = 1.0 - theta
+    return rho_s * theta * eps * (eps if along_column else 1.0) / beta(model, theta, slip, rho_g, mu_g, d)
