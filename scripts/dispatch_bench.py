@@ -15,7 +15,6 @@ the Python path: minimum and median over ``--rounds`` (at most 5) rounds of
 ``--steps`` steps.
 """
 import argparse
-import os
 import sys
 import time
 
@@ -23,11 +22,9 @@ import numba
 import numpy as np
 from mpi4py import MPI
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench import make_config  # noqa: E402
-
-from parsph.sph import equations, neighbours, pass_data, dispatch  # noqa: E402
-from parsph.simulation.solver import Simulation  # noqa: E402
+from parsph.simulation.solver import Simulation
+from parsph.sph import equations, neighbours, pass_data, dispatch
+from parsph.studies.cases import bench
 
 
 def empty_calls(sim):
@@ -64,7 +61,7 @@ def per_step(steps, rounds, native):
     """(minimum, median) CPU microseconds per step of the Couette case at N_x = 10 (160 particles,
     dt = 1e-5 s), stepped as parsph run steps (Simulation.take_steps): ``native`` the compiled blocks,
     else the Python path with mpi4py messages."""
-    sim = Simulation(make_config(10, ["numerics.dt=1e-5"]), MPI.COMM_SELF, native=None if native else False)
+    sim = Simulation(bench(10, ["numerics.dt=1e-5"]), MPI.COMM_SELF, native=None if native else False)
     sim.take_steps(300)
     times = []
     for _ in range(rounds):
@@ -81,7 +78,7 @@ def main():
     ap.add_argument("--steps", type=int, default=2000, help="steps per round of the step timing")
     a = ap.parse_args()
     numba.set_num_threads(1)
-    sim = Simulation(make_config(10), MPI.COMM_SELF)
+    sim = Simulation(bench(10), MPI.COMM_SELF)
     sim.compute_rates()
     print(f"{'pass':18s} {'dispatcher':>10s} {'compiled':>10s}  [us per call, CPU, median]")
     for name, (fn, args) in empty_calls(sim).items():

@@ -18,22 +18,15 @@
 Writes OUTDIR/scenes.md and prints it.
 """
 import argparse
-import math
 import os
 import subprocess
 import sys
 import time
-import warnings
 
-import numpy as np
-from mpi4py import MPI
-
+from parsph.output import read_profile
 from parsph.setup import config
-from parsph.physics.analytic import settling_equilibrium
-from parsph.output import output_files, read_profile, read_snapshot
-from parsph.sph.particles import FLUID
 from parsph.simulation.case import max_ranks
-from parsph.simulation.solver import Simulation
+from parsph.studies.validation import in_process, scene_error, theta_spread
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RUN = os.path.join(ROOT, "run")
@@ -49,27 +42,6 @@ def run_scene(name, ranks, out, extra=()):
     return time.perf_counter() - t0
 
 
-def settling_time(outdir, tol=1e-4):
-    """The first output time from which the fluid's largest |v_x| stays below ``tol`` [m/s] (None: never)."""
-    settled = None
-    for f in output_files(outdir):
-        snap = read_snapshot(f)
-        vx = np.abs(snap["velocity"][snap["kind"] == FLUID, 0]).max()
-        if vx < tol:
-            settled = settled if settled is not None else float(snap["attrs"]["time"])
-        else:
-            settled = None
-    return settled
-
-
-def in_process(text, over):
-    cfg = config.loads(text, over)
-    sim = Simulation(cfg, MPI.COMM_SELF)
-    last = {}
-    sim.run(output=lambda s, snapshot=None: last.update(s.profile))
-    return cfg, sim, last
-
-
 def scene_row(name, a):
     """Run one run file on a.ranks ranks; its row of the validated-cases table."""
     extra = []
@@ -78,52 +50,9 @@ def scene_row(name, a):
         extra = ["--set", f"output.t_end={cfg0.t_end / 10}", "--set",
                  f"output.times=[{cfg0.t_end / 20}, {cfg0.t_end / 10}]"]
     wall = run_scene(name, a.ranks, a.out, extra)
-    p = read_profile(os.path.join(a.out, name))
-    at = p["attrs"]
     cmd = f"`mpirun -n {a.ranks} parsph run run/{name}.toml`"
-    if at["error_field"] == "theta":
-        late = p["time"] >= 0.4 * p["time"][-1]
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # a bin can be empty at every late output
-            theta = np.nanmean(p["theta"][late], axis=0)
-        ref = p["theta_exact"][-1]
-        cfg = config.loads(at["run_file"])
-        paper = settling_equilibrium(p["x"], cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a, cfg.G_b,
-                                     form="paper")
-        err = np.abs(theta - ref) / cfg.theta0
-        errp = np.abs(theta - paper) / cfg.theta0
-        settled = settling_time(os.path.join(a.out, name))
-        when = f"settled (max \\|v_x\\| < 1e-4 m/s) from t = {settled:g} s" if settled is not None \
-            else "not settled (max \\|v_x\\| >= 1e-4 m/s at the last output)"
-        msg = (f"{when}; theta(x) averaged over t >= {p['time'][late][0]:g} s: max {np.nanmax(err):.2e}, "
-               f"RMS {math.sqrt(np.nanmean(err ** 2)):.2e} of theta_0 over {np.isfinite(err).sum()} of "
-               f"{err.size} bins (floor {theta[0]:.4f} vs {ref[0]:.4f}); against the paper form's balance: "
-               f"max {np.nanmax(errp):.2e}")
-    elif config.loads(at["run_file"]).scene.current_scale is not None:
-        # a decaying flow: errors relative to the amplitude left, and the decay rate of the
-        # simulated amplitude (its projection on the reference's shape) against the reference's
-        cfg = config.loads(at["run_file"])
-        rows = []
-        for t, f, fe in zip(p["time"], p["vy"], p["vy_exact"]):
-            a = cfg.error_scale(t)
-            ratio = float(np.dot(f, fe) / np.dot(fe, fe))  # A_sim / A_ref
-            rate = math.log(ratio * a / cfg.error_scale(0.0)) / math.log(a / cfg.error_scale(0.0)) - 1.0
-            rows.append(f"t = {t:g} s: {np.nanmax(np.abs(f - fe)) / a:.2e} of the amplitude left "
-                        f"({a / cfg.error_scale(0.0):.1e} U), decay rate {rate:+.2%}")
-        msg = "; ".join(rows)
-    else:
-        k = int(np.nanargmax(p["err_max"]))
-        msg = (f"t = {p['time'][-1]:g} s: max {p['err_max'][-1]:.2e}, RMS {p['err_rms'][-1]:.2e} "
-               f"of {at['error_scale']:.3g} m/s; largest over the outputs {p['err_max'][k]:.2e} at "
-               f"t = {p['time'][k]:g} s")
-    return f"| {name} | {cmd} | {at['n_particles']} | {wall:.1f} | {msg} |"
-
-
-def theta_spread(outdir):
-    """Standard deviation of the fluid particles' theta over their mean, at the last output."""
-    snap = read_snapshot(output_files(outdir)[-1])
-    th = snap["theta"][snap["kind"] == FLUID]
-    return float(th.std() / th.mean())
+    n, msg = scene_error(os.path.join(a.out, name))
+    return f"| {name} | {cmd} | {n} | {wall:.1f} | {msg} |"
 
 
 def main():

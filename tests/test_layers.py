@@ -1,6 +1,6 @@
 """The package's layering (docs/design.md, "Modules"): what each layer may import (the table's "may import"
-column), no module imports a layer above its own, no import cycle; and no script assigns to an attribute
-of a parsph module (a patch where a seam belongs).
+column), no module imports a layer above its own, no import cycle; and the scripts: none imports another,
+none assigns to an attribute of a parsph module (a patch where a seam belongs).
 
 Read from the sources with ``ast`` (every import statement, inside functions too), not from the code
 under test.
@@ -213,6 +213,18 @@ def test_rules_read_as_meant():
                                     "parsph.sph.neighbours"}
     assert not _within("parsph.sph.equations", r["parsph.parallel"][0])
     assert r["parsph.studies"][1] == {"h5py", "mpi4py"} and "parsph.cli" not in r["parsph.studies"][0]
+
+
+def test_scripts_import_no_script():
+    """A script's code that another needs belongs in the package (parsph.studies), not in a sibling script."""
+    names = {p.stem for p in (ROOT / "scripts").glob("*.py")}
+    found = []
+    for p in sorted((ROOT / "scripts").glob("*.py")):
+        for n in ast.walk(ast.parse(p.read_text())):
+            mods = [a.name for a in n.names] if isinstance(n, ast.Import) else \
+                [n.module or ""] if isinstance(n, ast.ImportFrom) and not n.level else []
+            found += [f"{p.name} imports {m}" for m in mods if m.split(".")[0] in names]
+    assert not found, found
 
 
 def test_scripts_assign_to_no_parsph_attribute():
