@@ -19,7 +19,6 @@ same pair list. Memory: peak resident set size summed over
 ranks, per particle. One JSON record per size goes to --json (appended).
 """
 import argparse
-import json
 import sys
 
 import numba
@@ -28,6 +27,7 @@ from mpi4py import MPI
 from parsph.simulation.solver import Simulation
 from parsph.studies import cases
 from parsph.studies.benchmark import bench
+from parsph.studies.runs import append_json
 
 
 def main():
@@ -64,8 +64,7 @@ def main():
                   f"{r['ns_per_pair_reference_forces']:.1f} ns/pair (density/forces; forces reading one packed "
                   f"row per particle: {r['ns_per_pair_reference_forces_rows']:.1f})", flush=True)
             if a.json:
-                with open(a.json, "a") as f:
-                    f.write(json.dumps(r) + "\n")
+                append_json(a.json, r)
     return 0
 
 

@@ -11,7 +11,6 @@ One thread: the serial passes, in process CPU time. More threads: the threaded p
 time, all threads together, is recorded too).
 """
 import argparse
-import json
 import os
 import platform
 import sys
@@ -20,6 +19,7 @@ import numba
 
 from parsph.studies.benchmark import check_passes, pair_state, time_passes
 from parsph.studies.machine import cpu_model, threading_layer
+from parsph.studies.runs import append_json
 
 
 def main():
@@ -62,8 +62,7 @@ def main():
                   f"{ns['forces_new']:.2f} ns/pair ({rec['forces_ratio']:.2f}x)  "
                   f"{'bit-identical' if not differ else 'DIFFERENT'}  load {load0:.1f}-{load1:.1f}", flush=True)
             if a.json:
-                with open(a.json, "a") as f:
-                    f.write(json.dumps(rec) + "\n")
+                append_json(a.json, rec)
         numba.set_num_threads(1)
     return status
 

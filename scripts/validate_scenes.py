@@ -23,6 +23,8 @@ import subprocess
 import sys
 import time
 
+import numpy as np
+
 from parsph.output import read_profile
 from parsph.setup import config
 from parsph.simulation.case import max_ranks

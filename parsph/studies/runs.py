@@ -82,6 +82,12 @@ def write_rows(path, fields, rows):
         w.writerows(rows)
 
 
+def append_json(path, record):
+    """Append ``record`` to a JSON-lines file as one line."""
+    with open(path, "a") as f:
+        f.write(json.dumps(record) + "\n")
+
+
 class CsvRows:
     """One CSV row per run, keyed by ``key_of(row)``; ``rows``: every run so far, in the file's order."""
 
@@ -122,8 +128,7 @@ class JsonLines:
 
     def add(self, key, record):
         record = dict(record, id=key)
-        with open(self.path, "a") as f:
-            f.write(json.dumps(record) + "\n")
+        append_json(self.path, record)
         self.records[key] = record
         return record
 
