@@ -323,7 +323,8 @@ def check(paths, k2, alpha_here, bandwidth):
             summary.setdefault(P, []).append((t["total"], busy + alone, rec["step_best_block_s"]))
             lines.append(f"check {path} P={P}: model {t['total'] * 1e3:.3f} ms (own {t['own']}, ghosts {t['ghosts']}, "
                          f"pairs {t['pairs']:.0f}); measured: own {max(x['own'] for x in pr)} ghosts "
-                         f"{max(x['ghosts_below'] + x['ghosts_above'] for x in pr)} pairs {max(x['pairs'] for x in pr)}, "
+                         f"{max(x['ghosts_below'] + x['ghosts_above'] for x in pr)} "
+                         f"pairs {max(x['pairs'] for x in pr)}, "
                          f"CPU {rec['cpu_s_per_step_max'] * 1e3:.3f} ms, outside waits + lone messages "
                          f"{(busy + alone) * 1e3:.3f} ms, fastest block {rec['step_best_block_s'] * 1e3:.3f} ms, "
                          f"s = {rec['steps_per_rebuild']:.1f}")

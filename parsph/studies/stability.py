@@ -5,7 +5,8 @@ A run is *stable* when none of the run-time checks' criteria (:func:`parsph.simu
 non-finite, beyond a wall, theta, kinetic energy) fired and nothing else failed. Not every failure is
 a time-step failure: two failing runs >= 8 % apart in dt that fail by the same criterion within 5 %
 of the same physical time failed because of the flow itself (``physical``); bounds count time-step
-failures only. ``scripts/stability_map.py`` drives the grid, the CSVs and the figures.
+failures only. The map's runs are :mod:`.stability_cases`', its modes :mod:`.stability_map`'s (which
+``scripts/stability_map.py`` drives), its figures :mod:`.stability_report`'s.
 """
 import math
 import time

@@ -305,7 +305,8 @@ def snapshot_code(out_dir, fresh):
 
 
 def _run_one(worker, key, run, out_dir, code=None):
-    cmd = [*worker, json.dumps(run), "--profiles", os.path.join(out_dir, "profiles")] + (["--code", code] if code else [])
+    cmd = [*worker, json.dumps(run), "--profiles", os.path.join(out_dir, "profiles")]
+    cmd += ["--code", code] if code else []
     t0 = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
