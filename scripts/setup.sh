@@ -7,8 +7,13 @@
 #   python : a virtual environment in .venv with scripts/requirements.txt,
 #            h5py built against the MPI-enabled HDF5, and parsph (editable)
 #   loops  : parsph's numba loops compiled into numba's cache (__pycache__
-#            beside the sources) by tiny runs of run/*.toml (parsph.cli.warm),
-#            so that no run compiles; again after a change of parsph/ or run/
+#            beside the sources) by tiny runs (parsph.cli.warm): the paper case
+#            that scripts/main.sh runs; with --suite (scripts/test.sh) also what
+#            the test suite runs in launched processes and under mpirun, in one
+#            process per core; again after a change of parsph/ or run/. Any
+#            other case compiles at its first run, and says so.
+#
+#   bash scripts/setup.sh [--suite]
 #
 # Environment: PARSPH_VENV (default .venv), PARSPH_CACHE (default
 # ~/.cache/parsph: the built h5py wheel, reused by later clones),
@@ -30,12 +35,21 @@ STAMP=$VENV/.parsph-setup-$stamp_key
 # Fingerprint of what decides the compiled loops: parsph's sources and the run files warmed.
 loops_key=$(cd "$ROOT" && find parsph run -name '*.py' -o -name '*.toml' | LC_ALL=C sort | xargs cat | sha256sum | cut -c1-16)
 LOOPS=$VENV/.parsph-loops-$loops_key${NUMBA_CACHE_DIR:+-$(echo "$NUMBA_CACHE_DIR" | sha256sum | cut -c1-8)}
+WARM=main  # the stamp $LOOPS-main: main.sh's case compiled; $LOOPS-suite: the test suite's too
+WARM_ARGS=()
+if [ "${1:-}" = "--suite" ]; then WARM=suite; WARM_ARGS=(--suite); fi
 warm_loops() {
-    [ -f "$LOOPS" ] && return 0
-    say "compiling parsph's loops into numba's cache (a minute or two, once per change of parsph/ or run/)"
-    "$VENV/bin/python" -m parsph.cli.warm "$ROOT/run" || die "compiling the loops failed"
-    rm -f "$VENV"/.parsph-loops-*
-    touch "$LOOPS"
+    [ -f "$LOOPS-$WARM" ] && return 0
+    if [ "$WARM" = suite ]; then
+        say "compiling the loops that main.sh and the test suite run into numba's cache (one process per core; once per change of parsph/ or run/)"
+    else
+        say "compiling the paper case's loops into numba's cache (about a minute, once per change of parsph/ or run/; other cases compile at their first run)"
+    fi
+    "$VENV/bin/python" -m parsph.cli.warm "$ROOT/run" "${WARM_ARGS[@]}" || die "compiling the loops failed"
+    for f in "$VENV"/.parsph-loops-*; do  # the stamps of other sources
+        case "$f" in "$LOOPS"-*) ;; *) rm -f "$f" ;; esac
+    done
+    touch "$LOOPS-main" "$LOOPS-$WARM"
 }
 if [ -f "$STAMP" ] && command -v mpirun >/dev/null && [ -x "$VENV/bin/parsph" ]; then
     warm_loops

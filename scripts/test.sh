@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Set up whatever is missing and run the whole test suite:
+# Set up whatever is missing (with the loops the suite runs compiled) and run the whole test suite:
 #   1. serial tests (they also launch small mpirun jobs as subprocesses), in
 #      PARSPH_TEST_WORKERS (default 2) pytest-xdist workers, one test file per
 #      worker at a time (a file's module fixtures run once); 0: in this process
@@ -7,7 +7,7 @@
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$ROOT"
-bash scripts/setup.sh
+bash scripts/setup.sh --suite  # also compiles what the suite runs in launched processes and under mpirun
 source scripts/mpienv.sh
 PY=.venv/bin/python
 echo "== serial tests"
