@@ -64,8 +64,10 @@ STOPPED = re.compile(r"^parsph: (SIG[A-Z]+|signal): stopped at step (\d+), t = (
 CODE = {"SIGINT": 130, "SIGTERM": 143}
 HANG_GUARD = 300  # s: from the signal to the end of every process, and from the start to the first
                   # progress line (a cold numba cache compiles first); beyond it the test fails as a hang
-MPIRUN_GRACE = 10  # s: mpirun's delay from a signal to SIGTERM to the ranks, and on to SIGKILL
-                   # (odls_base_sigkill_timeout; 1 s by default, in which a loaded machine may not write)
+MPIRUN_GRACE = 5  # s: mpirun's delay from a signal to SIGTERM to the ranks, and on to SIGKILL
+                  # (odls_base_sigkill_timeout; 1 s by default, in which a loaded machine may not write;
+                  # 25 times the 0.2 s the snapshot takes). A test of a signal to mpirun waits about twice
+                  # this (the ranks run on until the SIGTERM, and are killed in their teardown)
 
 
 def name(k):
