@@ -18,8 +18,17 @@ def particles(cfg, y_lo, y_hi):
     return lattice(cfg, y_lo, y_hi)
 
 
+def _weight(cfg):
+    """The column's gravity along -x [m/s^2], with buoyancy in a gas (PHYSICS.md)."""
+    return -cfg.g[0] * (1.0 - cfg.gas.rho / cfg.rho_s if cfg.gas is not None else 1.0)
+
+
 def reference(cfg, x, t):
-    theta = settling_equilibrium(x, cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a, cfg.G_b)
+    """The balance at rest without gas flow; a column fed at U > 0 has drag in its balance (no reference
+    here: the steady column is parsph.physics.gas_references.steady_column, with a free top)."""
+    if cfg.gas is not None and (cfg.gas.U > 0 or not cfg.gas.column):
+        return {}
+    theta = settling_equilibrium(x, cfg.theta0, cfg.L, cfg.rho_s, _weight(cfg), cfg.G_a, cfg.G_b)
     return {"theta": theta, "vy": np.zeros_like(theta)}
 
 
@@ -37,7 +46,7 @@ def wall_theta(cfg, x):
     at 70/s, the same with any dt or with the midpoint scheme).
     """
     form = "paper" if cfg.get("numerics.pressure_form") == "paper" else "closure"
-    return settling_equilibrium(x, cfg.theta0, cfg.L, cfg.rho_s, -cfg.g[0], cfg.G_a, cfg.G_b, form=form)
+    return settling_equilibrium(x, cfg.theta0, cfg.L, cfg.rho_s, _weight(cfg), cfg.G_a, cfg.G_b, form=form)
 
 
 def max_kinetic_energy(cfg, fluid_mass):
