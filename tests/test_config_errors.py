@@ -74,6 +74,30 @@ CASES = {
     # the support does not reach the next particle: h / dx is the cause, not the wall layers
     "h_over_dx_too_small": (edit(r"^h = 2.5e-4 .*$", "h_over_dx = 0.3"), [],
                             ["error: numerics.h_over_dx:", "too small", "h / dx > 0.5"]),
+    # [gas] (PHYSICS.md, "The solid phase in a gas")
+    "gas_drag_unknown": (None, ["--set", "gas.drag=ergun"], ["gas.drag", "wen_yu"]),
+    "gas_mu_zero": (None, ["--set", "gas.drag=stokes", "--set", "gas.mu=0.0"], ["gas.mu", "positive"]),
+    "gas_denser_than_solids": (None, ["--set", "gas.drag=stokes", "--set", "gas.rho=2500.0"],
+                               ["gas.rho", "not below", "rho_s"]),
+    "gas_velocity_length": (None, ["--set", "gas.drag=stokes", "--set", "gas.velocity=[1.0]"],
+                            ["gas.velocity", "needs 2 components"]),
+    "gas_column_without_gravity": (None, ["--set", "gas.drag=stokes", "--set", "gas.flow=column"],
+                                   ["body_force.g", "needs gravity"]),
+    "gas_column_tilted_gravity": (None, ["--set", "gas.drag=stokes", "--set", "gas.flow=column",
+                                         "--set", "body_force.g=[-9.81, 1.0]"], ["body_force.g", "one axis"]),
+    "gas_U_for_stream": (None, ["--set", "gas.drag=stokes", "--set", "gas.U=0.1"], ["gas.U", "column"]),
+    "gas_velocity_for_column": (None, ["--set", "gas.drag=stokes", "--set", "gas.flow=column",
+                                       "--set", "body_force.g=[-9.81, 0.0]", "--set", "gas.velocity=[0.0, 1.0]"],
+                                ["gas.velocity", "column"]),
+    "gas_key_without_drag": (None, ["--set", "gas.rho=1.2"], ["gas.rho", "no effect", "gas.drag"]),
+    "gas_U_negative": (None, ["--set", "gas.drag=stokes", "--set", "gas.flow=column",
+                              "--set", "body_force.g=[-9.81, 0.0]", "--set", "gas.U=-0.1"], ["gas.U", "negative"]),
+    "grain_diameter_zero": (None, ["--set", "material.d=0.0"], ["material.d", "positive"]),
+    "drag_update_unknown": (None, ["--set", "numerics.drag_update=exact"], ["numerics.drag_update", "implicit"]),
+    "gas_explicit_dt_unstable": (None, ["--set", "gas.drag=stokes", "--set", "gas.rho=1000.0",
+                                        "--set", "gas.mu=1e-3", "--set", "material.d=1e-5",
+                                        "--set", "numerics.drag_update=explicit"],
+                                 ["numerics.dt", "stability limit", "(drag)"]),
 }
 
 
