@@ -22,9 +22,9 @@ TABLE = [
     ("parsph/compile_settings.py", "nothing of parsph"),
     ("parsph/physics/", "errors"),
     ("parsph/sph/", "physics"),
-    ("parsph/parallel/", "sph's particles and cell grid (never the equations); mpi4py"),
+    ("parsph/parallel/", "errors, sph's particles and cell grid (never the equations); mpi4py"),
     ("parsph/output/", "nothing of parsph but its version; h5py, mpi4py"),
-    ("parsph/setup/", "physics, sph (particle kinds, integrator names, the cell grid)"),
+    ("parsph/setup/", "errors, physics, sph (particle kinds, integrator names, the cell grid)"),
     ("parsph/simulation/", "all of the above"),
     ("parsph/studies/", "all of the above"),
     ("parsph/cli/", "everything"),
@@ -38,12 +38,7 @@ EXTERNAL = ("mpi4py", "h5py")   # checked: MPI and parallel HDF5 only where the 
 OUTSIDE = {"parsph": {"parsph.numba_cache", "parsph.compile_settings"}, "parsph.__main__": {"parsph.cli"}}
 # imports the column does not allow today, each to be settled in design.md's table or in the code (a listed
 # import that is gone fails test_known_exceptions_are_current, so this list cannot go stale)
-KNOWN = {
-    ("parsph.parallel.slab_ring", "parsph.errors"): "DecompositionError; design.md's parallel row omits errors",
-    ("parsph.setup.config", "parsph.errors"): "ConfigError; design.md's setup row omits errors",
-    ("parsph.setup.runfile", "parsph.errors"): "ConfigError; design.md's setup row omits errors",
-    ("parsph.setup.schema", "parsph.errors"): "ConfigError; design.md's setup row omits errors",
-}
+KNOWN = {}
 
 
 def layer_name(path):
@@ -208,8 +203,8 @@ def test_rules_read_as_meant():
     r = rules()
     assert r["parsph.output"] == ({"parsph"}, {"h5py", "mpi4py"})
     assert r["parsph.physics"] == ({"parsph.errors"}, set())
-    assert r["parsph.parallel"] == ({"parsph.sph.particles", "parsph.sph.neighbours"}, {"mpi4py"})
-    assert r["parsph.setup"][0] == {"parsph.physics", "parsph.sph.particles", "parsph.sph.integrators",
+    assert r["parsph.parallel"] == ({"parsph.errors", "parsph.sph.particles", "parsph.sph.neighbours"}, {"mpi4py"})
+    assert r["parsph.setup"][0] == {"parsph.errors", "parsph.physics", "parsph.sph.particles", "parsph.sph.integrators",
                                     "parsph.sph.neighbours"}
     assert not _within("parsph.sph.equations", r["parsph.parallel"][0])
     assert r["parsph.studies"][1] == {"h5py", "mpi4py"} and "parsph.cli" not in r["parsph.studies"][0]
