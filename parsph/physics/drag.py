@@ -23,22 +23,28 @@ STOKES, WEN_YU, GIDASPOW = 0, 1, 2
 MODELS = {"stokes": STOKES, "wen_yu": WEN_YU, "gidaspow": GIDASPOW}
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def _power(x, a):
+    """x^a for x > 0 (0 at x = 0, a > 0) as exp(a ln x): a fifth cheaper than pow in the step's loop."""
+    return math.exp(a * math.log(x)) if x > 0.0 else 0.0
+
+
+@njit(cache=True, inline="always")
 def wen_yu(theta, slip, rho_g, mu_g, d):
     """Wen & Yu's beta [kg/(m^3 s)]."""
     eps = 1.0 - theta
     re = eps * rho_g * slip * d / mu_g
     if re < 1000.0:
-        return 18.0 * mu_g * theta * eps ** -2.65 / (d * d) * (1.0 + 0.15 * re ** 0.687)
-    return 0.33 * rho_g * theta * eps ** -1.65 * slip / d
+        return 18.0 * mu_g * theta * _power(eps, -2.65) / (d * d) * (1.0 + 0.15 * _power(re, 0.687))
+    return 0.33 * rho_g * theta * _power(eps, -1.65) * slip / d
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def beta(model, theta, slip, rho_g, mu_g, d):
     """beta [kg/(m^3 s)] of closure ``model`` (:data:`MODELS`)."""
     eps = 1.0 - theta
     if model == STOKES:
-        return 18.0 * mu_g * theta * eps ** -2.65 / (d * d)
+        return 18.0 * mu_g * theta * _power(eps, -2.65) / (d * d)
     wy = wen_yu(theta, slip, rho_g, mu_g, d)
     if model == WEN_YU:
         return wy
@@ -47,13 +53,22 @@ def beta(model, theta, slip, rho_g, mu_g, d):
     return (1.0 - phi) * ergun + phi * wy
 
 
+@njit(cache=True, inline="always")
+def rate(model, theta, slip, rho_s, rho_g, mu_g, d):
+    """K = beta / (rho_s theta eps) [1/s]: the drag per unit mass and unit slip (1/tau in a stream). For
+    Stokes written as 18 mu_g eps^-3.65 / (rho_s d^2): no slip and one power, the step's cheapest case."""
+    eps = 1.0 - theta
+    if model == STOKES:
+        return 18.0 * mu_g / (rho_s * d * d) * _power(eps, -3.65)
+    return beta(model, theta, slip, rho_g, mu_g, d) / (rho_s * theta * eps)
+
+
 def terminal_velocity(rho_s, rho_g, g, d, mu_g):
     """u_t = (rho_s - rho_g) |g| d^2 / (18 mu_g) [m/s]: Stokes's terminal velocity of one grain."""
     return (rho_s - rho_g) * abs(g) * d * d / (18.0 * mu_g)
 
 
 def relaxation_time(model, theta, slip, rho_s, rho_g, mu_g, d, along_column=False):
-    """tau [s] with which drag relaxes the slip: rho_s theta eps / beta (a stream, or across a column),
-    rho_s theta eps^2 / beta along a column's axis."""
-    eps = 1.0 - theta
-    return rho_s * theta * eps * (eps if along_column else 1.0) / beta(model, theta, slip, rho_g, mu_g, d)
+    """tau [s] with which drag relaxes the slip: 1 / K = rho_s theta eps / beta (a stream, or across a
+    column), eps / K = rho_s theta eps^2 / beta along a column's axis."""
+    return (1.0 - theta if along_column else 1.0) / rate(model, theta, slip, rho_s, rho_g, mu_g, d)
