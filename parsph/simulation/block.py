@@ -43,14 +43,12 @@ from parsph.physics.limits import state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
 
 EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = range(9)
-CODES = ("event", "rebuild", "rebuild at the midpoint", "bad state", "bad state at the midpoint", "stop",
-         "new limit", "MPI error", "check failed")
 # ctl (float64): the block's clock and its inputs from Python
 T, DT, T_TARGET, STOP_IN, FORCE_IN, STOP_OUT, LAND, EVAL_FIRST = range(8)
 N_CTL = 8
 # ictl (int64)
-STEP, STOP_STEP, STEPS_DONE, CHECKED = range(4)  # CHECKED: the last step the block checked
-N_ICTL = 4
+STEP, STOP_STEP, CHECKED = range(3)  # CHECKED: the last step the block checked
+N_ICTL = 3
 # timers (float64 seconds), in the solver's phase names
 TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
 SYNC, DENSITY, HALO, FORCES, INTEGRATE, CHECKS = range(6)
@@ -247,7 +245,6 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     sums_all = scratch[16 + N_REPORT + N_FASTEST:18 + N_REPORT + N_FASTEST]
     pos, vel, acc, kind, drag, implicit = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag, modes.implicit
     n_own = parts.n_own
-    ictl[STEPS_DONE] = 0
     if ctl[EVAL_FIRST] != 0.0:  # the rates of the state as it is (a list was just built)
         ctl[EVAL_FIRST] = 0.0
         if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
@@ -297,7 +294,6 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         else:
             bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         ictl[STEP] += 1
-        ictl[STEPS_DONE] += 1
         if len(modes.dt_auto):
             ctl[T] = ctl[T_TARGET] if land else ctl[T] + dt
         else:
