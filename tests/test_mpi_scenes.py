@@ -10,8 +10,8 @@ images), the periodic box with pressure on (x images of the y-ghosts, corner
 copies), the settling column (gravity, walls whose theta varies, the
 consistent pressure form; driven along y as well, so that it crosses slab
 edges), Poiseuille flow (a body force along y), and two in a gas: the periodic box falling through a
-stream along y (Gidaspow, implicit drag) and the settling column fed from the floor (Wen & Yu,
-explicit drag). The fluid gets a random
+stream along y (Gidaspow, implicit drag) and the settling column sheared by a stream of water along y
+(Wen & Yu, explicit drag). The fluid gets a random
 velocity (a function of the global id, the same on every rank count), so that
 particles leave the lattice and cross slab edges and the periodic boundaries
 in x and z. Compared after the run, sorted by global id: the state (position,

@@ -35,15 +35,16 @@ CASES = {
                                    "body_force.g=[-30.0, 50.0]", "numerics.dt=5e-5"], 0.05, 80),
     "poiseuille": ("poiseuille.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
                                        "body_force.g=[0.0, 500.0]"], 0.05, 100),
-    # in a gas: a stream along y through a falling box (Gidaspow, implicit drag), and a column fed from the
-    # floor (Wen & Yu, explicit drag under the auto rule)
+    # in a gas: a stream along y through a falling box (Gidaspow, implicit drag), and a stream of water along
+    # y through the settling column, which it shears against the walls (Wen & Yu, explicit drag)
     "box_gas": ("periodic_box.toml", ["domain.L=0.0032", "numerics.Nx=16", f"domain.Ly={ROWS * DX!r}",
                                       "scene.amplitude=0.5", "terms.pressure=true", 'gas.drag="gidaspow"',
                                       "gas.velocity=[0.0, 0.3]", "gas.rho=1000.0", "gas.mu=1e-3",
                                       "body_force.g=[-9.81, 0.0]"], 0.1, 80),
     "settling_gas": ("settling.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
-                                       'gas.drag="wen_yu"', 'gas.flow="column"', "gas.U=0.02",
-                                       'numerics.drag_update="explicit"', "numerics.dt=5e-5"], 0.05, 80),
+                                       'gas.drag="wen_yu"', "gas.velocity=[0.0, 0.5]", "gas.rho=1000.0",
+                                       "gas.mu=1e-3", 'numerics.drag_update="explicit"', "numerics.dt=5e-5"],
+                     0.05, 80),
 }
 FIELDS = ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")
 
