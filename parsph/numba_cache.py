@@ -12,6 +12,19 @@ Where ``NUMBA_CACHE_DIR`` is set, that directory is kept in step the same
 way, except that one without a stamp (a fresh copy of a cache that was in
 step) is taken as it is. Nothing here changes a result; a read-only cache
 is left alone.
+
+Several processes compiling at once (mpirun's ranks, the test suite's
+workers, ``parsph.cli.warm``'s processes) save into one cache. numba saves a
+compiled version by reading the function's index, taking the first data file
+number the index does not use, writing the index and then the data file, each
+file replaced atomically but nothing held between the steps
+(numba.core.caching.IndexDataCacheFile.save): two processes saving different
+versions of one function at once can both take data file N, leaving the index
+mapping one version's signature to the other's code, which later processes
+load as a hit. So parsph's processes hold one lock (``fcntl.flock`` on
+``parsph-save.lock`` in the cache's folder) for each save, from the index's
+read to the data file's write (:func:`serialise_saves`). Loading takes no lock:
+an index entry whose data file is not written yet reads as a miss.
 """
 import hashlib
 import os
@@ -20,6 +33,7 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
 STAMP = "parsph-sources.sha256"
+SAVE_LOCK = "parsph-save.lock"
 
 
 def sources_hash():
@@ -39,9 +53,37 @@ def _cache_dirs(root):
 
 
 def keep_in_step():
-    """Remove parsph's cached loops built from other sources than these (see the module doc)."""
+    """Remove parsph's cached loops built from other sources than these, and serialise this process's saves
+    into the cache (see the module doc)."""
     root = os.environ.get("NUMBA_CACHE_DIR") or None
     base = PACKAGE / "__pycache__" if root is None else Path(root)
+    serialise_saves(base / SAVE_LOCK)
+    _clean(root, base)
+
+
+def serialise_saves(lock_path):
+    """From now on this process saves numba's cache entries holding ``lock_path`` (module doc). Where the
+    lock cannot be opened (a read-only cache) a save goes on without it, as numba's own."""
+    import fcntl
+    from numba.core import caching
+    current = caching.IndexDataCacheFile.save
+    save = getattr(current, "unlocked", current)
+    lock_path = Path(lock_path)
+
+    def locked_save(self, key, data):
+        try:
+            lock_path.parent.mkdir(parents=True, exist_ok=True)
+            f = open(lock_path, "a")
+        except OSError:
+            return save(self, key, data)
+        with f:  # closing the file releases the lock
+            fcntl.flock(f, fcntl.LOCK_EX)
+            return save(self, key, data)
+    locked_save.unlocked = save
+    caching.IndexDataCacheFile.save = locked_save
+
+
+def _clean(root, base):
     stamp = base / STAMP
     want = sources_hash()
     try:
