@@ -14,9 +14,8 @@ box, one rank each:
   couette_paper.toml, default the repository's ``run/``) on one thread;
 - with ``--suite`` also what the test suite (``scripts/test.sh``) runs in
   launched processes and under mpirun, where each process or rank would
-  compile it again: every run file of RUN_DIR with one thread and with two,
-  the paper case with the midpoint integrator, and the variants of
-  :data:`SUITE_EXTRA`.
+  compile it again: every run file of RUN_DIR on one thread and the variants
+  of :data:`SUITE`.
 
 Any other combination compiles at its first run, which says so and for how
 long (:mod:`.progress`). What the cache holds already is loaded, not compiled
@@ -24,15 +23,10 @@ again; no result depends on any of it. Prints one line: what it ran, and the
 seconds it compiled.
 
 With several cases the runs go to ``--jobs`` processes (default: one per core,
-at most 4) that take the cases one by one from a shared queue. numba writes a
-compiled version as a read-modify-write of the function's index file followed
-by the data file the index names, each replaced atomically but not the two
-together: two processes saving versions of one function at the same time can
-both take the same data file number (numba.core.caching.IndexDataCacheFile.save),
-leaving the index pointing at the other version's code. The processes here
-therefore hold one lock (``fcntl.flock``) from the index's read to the data
-file's write; loading needs no lock (an index entry whose data file is not
-written yet reads as a miss, and the version compiles).
+at most 4) that take the cases one by one from a shared counter. They save
+into the one cache, each save under parsph's lock
+(:func:`parsph.numba_cache.serialise_saves`: numba's saves are not safe for
+two processes writing versions of one function at once).
 """
 import argparse
 import contextlib
@@ -52,16 +46,31 @@ TINY = ["domain.Ly=0.003", "output.t_end=3e-5", "output.times=[3e-5]", "output.p
 TINY_3D = ["domain.Lz=0.0006"]
 RUN_DIR = Path(__file__).resolve().parents[2] / "run"
 MAIN = [("couette_paper.toml", [], 1)]  # scripts/main.sh: the paper case, one thread per rank
-EXTRA = {"couette_paper.toml": [["numerics.integrator=midpoint"]]}
-# (run file, overrides, threads) that the suite runs in launched processes or under mpirun beyond the above:
-# tests/test_mpi_parallel.py (midpoint, auto dt, symmetric viscosity), tests/mpi_helpers/scene_ranks.py
-# (the settling column with a fixed dt; the periodic box with the pressure term, 2 threads and 1)
-SUITE_EXTRA = [
+# (run file, overrides, threads) that the suite runs in launched processes (tests/mpi_helpers/scene_ranks.py,
+# parsph run / converge from the CLI tests) and under mpirun (the MPI phases: test_compiled_step's CASES,
+# test_mpi_parallel, test_mpi_scenes) beyond the run files on one thread. A test that launches a variant not
+# here compiles it in every process (each rank of each pytest worker) at once: add it here.
+SUITE = [
+    ("couette_paper.toml", ["numerics.integrator=midpoint"], 1),
+    ("couette_paper.toml", ['numerics.dt="auto"'], 1),
     ("couette_paper.toml", ["numerics.integrator=midpoint", 'numerics.dt="auto"', "numerics.viscosity_form=symmetric"],
      1),
+    ("couette_3d.toml", [], 2),
     ("settling.toml", ["numerics.dt=5e-5"], 1),
     ("periodic_box.toml", ["terms.pressure=true"], 1),
     ("periodic_box.toml", ["terms.pressure=true"], 2),
+    # in a gas: scene_ranks' box_gas (implicit drag, 2 threads and 1) and settling_gas (explicit, fixed dt),
+    # test_compiled_step's box_gas (explicit under the auto rule) and settling_gas (implicit, midpoint)
+    ("periodic_box.toml", ["terms.pressure=true", 'gas.drag="gidaspow"', "gas.velocity=[0.0, 0.3]", "gas.rho=1000.0",
+                           "gas.mu=1e-3", "body_force.g=[-9.81, 0.0]"], 1),
+    ("periodic_box.toml", ["terms.pressure=true", 'gas.drag="gidaspow"', "gas.velocity=[0.0, 0.3]", "gas.rho=1000.0",
+                           "gas.mu=1e-3", "body_force.g=[-9.81, 0.0]"], 2),
+    ("settling.toml", ['gas.drag="wen_yu"', 'gas.flow="column"', "gas.U=0.02", 'numerics.drag_update="explicit"',
+                       "numerics.dt=5e-5"], 1),
+    ("periodic_box.toml", ['gas.drag="wen_yu"', 'gas.flow="column"', "body_force.g=[-9.81, 0.0]", "gas.rho=1000.0",
+                           "gas.mu=1e-3", "material.d=1e-4", "scene.amplitude=2.0", 'numerics.drag_update="explicit"',
+                           'numerics.dt="auto"'], 1),
+    ("settling.toml", ['gas.drag="gidaspow"', 'gas.flow="column"', "gas.U=0.05", "numerics.integrator=midpoint"], 1),
 ]
 QUEUE = "PARSPH_WARM_QUEUE"  # a worker's shared folder: the lock, the next case, the results
 
@@ -75,10 +84,8 @@ def variants(run_dir, suite=False):
     run_dir = Path(run_dir)
     picked = [(run_dir / name, sets, threads) for name, sets, threads in MAIN]
     if suite:
-        for path in sorted(run_dir.glob("*.toml")):
-            for more in [[]] + EXTRA.get(path.name, []):
-                picked += [(path, more, threads) for threads in (1, 2)]
-        picked += [(run_dir / name, sets, threads) for name, sets, threads in SUITE_EXTRA]
+        picked += [(path, [], 1) for path in sorted(run_dir.glob("*.toml"))]
+        picked += [(run_dir / name, sets, threads) for name, sets, threads in SUITE]
     out = []
     for path, sets, threads in picked:
         case = (path, _tiny(path) + list(sets), threads)
@@ -115,17 +122,6 @@ def _locked(folder):
             yield
         finally:
             fcntl.flock(f, fcntl.LOCK_UN)
-
-
-def serialise_cache_saves(folder):
-    """From now on this process saves numba's cache entries under the lock of ``folder`` (module doc)."""
-    from numba.core import caching
-    save = caching.IndexDataCacheFile.save
-
-    def locked_save(self, key, data):
-        with _locked(folder):
-            return save(self, key, data)
-    caching.IndexDataCacheFile.save = locked_save
 
 
 def _next_case(folder):
@@ -171,7 +167,6 @@ def main(argv=None):
     cases = variants(a.run_dir, a.suite)
     if a.worker:  # one of main()'s processes: cases from the queue, the result into it
         folder = os.environ[QUEUE]
-        serialise_cache_saves(folder)
         seconds, failed = run_cases(cases, lambda: _next_case(folder))
         Path(folder, f"result.{os.getpid()}").write_text(json.dumps([seconds, failed]))
         return 0
