@@ -13,7 +13,8 @@ The solids feel ``+beta (u_g - v)`` per unit volume; ``slip`` below is |u_g - v|
   The blend is used (not the jump) so that beta is continuous in theta: the hindered settling root
   and an implicit update see no step.
 
-numba functions (the step's loops call them per particle) that work from Python too.
+numba functions (the step's loops call them per particle) that work from Python too; numpy's error model
+(a zero divisor gives inf or nan, as in the loops, instead of raising).
 """
 import math
 
@@ -23,13 +24,13 @@ STOKES, WEN_YU, GIDASPOW = 0, 1, 2
 MODELS = {"stokes": STOKES, "wen_yu": WEN_YU, "gidaspow": GIDASPOW}
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def _power(x, a):
     """x^a for x > 0 (0 at x = 0, a > 0) as exp(a ln x): a fifth cheaper than pow in the step's loop."""
     return math.exp(a * math.log(x)) if x > 0.0 else 0.0
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def wen_yu(theta, slip, rho_g, mu_g, d):
     """Wen & Yu's beta [kg/(m^3 s)]."""
     eps = 1.0 - theta
@@ -39,7 +40,7 @@ def wen_yu(theta, slip, rho_g, mu_g, d):
     return 0.33 * rho_g * theta * _power(eps, -1.65) * slip / d
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def beta(model, theta, slip, rho_g, mu_g, d):
     """beta [kg/(m^3 s)] of closure ``model`` (:data:`MODELS`)."""
     eps = 1.0 - theta
@@ -53,7 +54,7 @@ def beta(model, theta, slip, rho_g, mu_g, d):
     return (1.0 - phi) * ergun + phi * wy
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", error_model="numpy")
 def rate(model, theta, slip, rho_s, rho_g, mu_g, d):
     """K = beta / (rho_s theta eps) [1/s]: the drag per unit mass and unit slip (1/tau in a stream). For
     Stokes written as 18 mu_g eps^-3.65 / (rho_s d^2): no slip and one power, the step's cheapest case."""

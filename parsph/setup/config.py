@@ -150,8 +150,8 @@ class RunConfig:
         gas = self.gas
         if gas is None:
             return 0.0
-        return 1.0 / closures_drag.relaxation_time(gas.model, theta, slip, self.rho_s, gas.rho, gas.mu, gas.d,
-                                                   along_column=gas.column)
+        K = closures_drag.rate(gas.model, theta, slip, self.rho_s, gas.rho, gas.mu, gas.d)
+        return K / (1.0 - theta) if gas.column else K
 
     def error_scale(self, t):
         """What errors of the scene's error field are relative to at time t [m/s or 1]: the amplitude left
@@ -261,6 +261,9 @@ def _gas(v, dim, g, rho_s):
             raise ConfigError(f"gas.{given[0]}", 'has no effect with gas.drag = "none": give gas.drag '
                               f'({", ".join(closures_drag.MODELS)})')
         return None
+    d = v["material"]["d"]
+    if not d * d > 0:
+        raise ConfigError("material.d", f"{d:g} m is too small: the drag divides by d^2, which is 0 in floating point")
     rho = AIR_RHO if gas["rho"] is None else gas["rho"]
     mu = AIR_MU if gas["mu"] is None else gas["mu"]
     if not rho < rho_s:
@@ -290,7 +293,7 @@ def _gas(v, dim, g, rho_s):
         sign = -1.0 if g[axis] > 0 else 1.0
         U = gas["U"] or 0.0
     return Gas(gas["drag"], closures_drag.MODELS[gas["drag"]], float(rho), float(mu),
-               float(v["material"]["d"]), flow, tuple(float(x) for x in velocity), float(U), axis, sign,
+               float(d), flow, tuple(float(x) for x in velocity), float(U), axis, sign,
                v["numerics"]["drag_update"] == "implicit")
 
 
@@ -299,11 +302,19 @@ def _time_step(v, cfg):
     mat, num, out = v["material"], v["numerics"], v["output"]
     theta0, g = cfg.theta0, cfg.g
     # explicit drag at theta_0, its slip the run's velocity scale
-    drag_max = cfg.drag_coefficient(theta0, cfg.velocity_scale) if cfg.gas and not cfg.gas.implicit else 0.0
+    drag_max = cfg.drag_coefficient(theta0, cfg.velocity_scale) if cfg.gas else 0.0
+    if cfg.gas and not (0.0 < drag_max < math.inf and math.isfinite(cfg.velocity_scale)):
+        raise ConfigError("gas.drag", f"the drag coefficient 1/tau at theta_0 is {drag_max:g} 1/s at a slip of "
+                          f"{cfg.velocity_scale:g} m/s: out of range (material.d, gas.mu, gas.rho, the gas's speed)")
+    if cfg.gas and cfg.gas.implicit:
+        drag_max = 0.0  # implicit drag has no limit
     try:
         # the run's limits at theta_0 (parsph.physics.limits): the refusal of a fixed dt and the first automatic dt
         limits = dict(stability.run_limits(cfg, theta0, cfg.velocity_scale, math.sqrt(sum(x * x for x in g)),
                                            drag_max))
+    except ZeroDivisionError:  # (rho_s theta)^2 underflows to 0 in the limits' pressure term
+        raise ConfigError("material.rho_s", f"{mat['rho_s']:g} kg/m^3 is too small: the stability limits divide "
+                          "by rho_s^2, which is 0 in floating point") from None
     except OverflowError:
         key = "material.G_a" if abs(mat["G_a"] * theta0) >= abs(mat["G_b"]) else "material.G_b"
         raise ConfigError(key, f"G(theta0) = 10^({mat['G_a']:g} theta0 + {mat['G_b']:g}) overflows") from None

@@ -32,9 +32,9 @@ def particles(cfg, y_lo, y_hi):
 def _drag_y(cfg):
     """(C, v_inf) of v_y in the run's gas at theta_0 with Stokes drag; (0, 0) without a gas."""
     gas = cfg.gas
-    if gas is None:
-        return 0.0, 0.0
     C = cfg.drag_coefficient(cfg.theta0, 0.0)  # the largest: along a column's axis
+    if gas is None or not 0.0 < C < math.inf:
+        return 0.0, 0.0
     w = gas.velocity[1]
     if gas.column:
         w = gas.sign * gas.U if gas.axis == 1 else 0.0
