@@ -256,7 +256,7 @@ class Simulation(CompiledSteps):
         ps, T, cfg = self.ps, self.timers, self.cfg
         t0 = self.clock()
         n = ps.n_own
-        drag = pass_data.particle_arrays(ps).drag
+        drag = self._drag_field()
         if cfg.integrator == "paper":
             bad = integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, n, dt, ps.jump, cfg.h, drag, self._implicit)
             T["integrate"] += self.clock() - t0
@@ -276,7 +276,7 @@ class Simulation(CompiledSteps):
         ps, cfg = self.ps, self.cfg
         t0 = self.clock()
         bad = integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
-                                           ps.jump, cfg.h, pass_data.particle_arrays(ps).drag, self._implicit)
+                                           ps.jump, cfg.h, self._drag_field(), self._implicit)
         self.timers["integrate"] += self.clock() - t0
         return bad
 
@@ -293,6 +293,11 @@ class Simulation(CompiledSteps):
         vmax, theta_max, amax, cmax = self.collect.max(local)
         theta_max = min(theta_max, 0.999)
         return limits.stable_dt(cfg, theta_max, vmax, amax, cmax)[0]   # config.build's limits, at the current state
+
+    def _drag_field(self):
+        """The particles' drag coefficients as the integrators take them (an empty array without a gas; read
+        anew each step, as the field is reallocated when the particles grow)."""
+        return self.ps.drag if self.gas is not None else self._no_state
 
     @property
     def explicit_drag(self):
