@@ -150,7 +150,7 @@ class RunConfig:
         gas = self.gas
         if gas is None:
             return 0.0
-        K = closures_drag.rate(gas.model, theta, slip, self.rho_s, gas.rho, gas.mu, gas.d)
+        K = closures_drag.rate(gas.model, theta, slip * slip, self.rho_s, gas.rho, gas.mu, gas.d)
         return K / (1.0 - theta) if gas.column else K
 
     def error_scale(self, t):

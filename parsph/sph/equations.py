@@ -453,17 +453,15 @@ def drag_plain(k, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, 
     th = theta[k]
     eps = 1.0 - th
     dim = vel.shape[1]
-    slip = 0.0
+    slip2 = 0.0
     if model != STOKES:  # Stokes's beta does not depend on the slip
-        slip2 = 0.0
         for d in range(dim):
             if column:
                 s = (sign * U - vel[k, d]) / eps if d == axis else vel[k, d]
             else:
                 s = u[d] - vel[k, d]
             slip2 += s * s
-        slip = math.sqrt(slip2)
-    K = rate(model, th, slip, rho_s, rho_g, mu_g, d_grain)
+    K = rate(model, th, slip2, rho_s, rho_g, mu_g, d_grain)
     for d in range(dim):
         C = K
         w = u[d]
