@@ -360,6 +360,8 @@ def build(run_file):
         integrator=num["integrator"], g=g, scene=scene, gas=gas,
         pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
         viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
+    if scene.check is not None:
+        scene.check(cfg)
     return replace(cfg, **_time_step(v, cfg))
 
 

@@ -35,6 +35,9 @@ SCHEMA = {
         "name": Key("str", "couette", choices=SCENE_NAMES, doc="scene to run"),
         "dim": Key("int", 2, choices=(2, 3), doc="spatial dimension (3: z periodic too)"),
         "amplitude": Key("float", 0.01, doc="periodic_box: amplitude of the initial shear wave v_y [m/s]"),
+        "height": Key("float", None, positive=True,
+                      doc="sedimentation, fluidized_bed: the layer's initial height H0 on the floor [m] "
+                          "(default L / 2)"),
     },
     "terms": {
         "pressure": Key("bool", None, doc="the pressure term of Eq. (5) (default: as the scene declares)"),

@@ -15,7 +15,7 @@ import numpy as np
 
 from parsph.sph.particles import FLUID, WALL, MOVING_WALL
 
-SCENE_NAMES = ("couette", "poiseuille", "settling", "periodic_box")
+SCENE_NAMES = ("couette", "poiseuille", "settling", "periodic_box", "sedimentation", "fluidized_bed")
 
 
 @dataclass(frozen=True)
@@ -50,6 +50,10 @@ class Scene:
     # errors are then reported relative to it (None: to the fixed scale, V_w or theta_0;
     # RunConfig.error_scale)
     current_scale: Optional[Callable] = None
+    # check(cfg) raises ConfigError naming the key where the run file asks what the scene cannot do
+    check: Optional[Callable] = None
+    # a layer on the floor under clear gas (fluid up to scene.height, nothing above it but the lid)
+    free_surface: bool = False
 
 
 def get_scene(name):
@@ -58,10 +62,11 @@ def get_scene(name):
     return importlib.import_module(f"{__name__}.{name}").SCENE
 
 
-def lattice(cfg, y_lo, y_hi, right_wall=WALL, right_velocity=0.0):
+def lattice(cfg, y_lo, y_hi, right_wall=WALL, right_velocity=0.0, fluid_columns=None):
     """Fluid (and wall) particles of the slab y_lo <= y < y_hi on the square lattice.
 
-    Fluid at x = (i + 1/2) dx, i < Nx; with walls, ``cfg.layers`` columns
+    Fluid at x = (i + 1/2) dx, i < Nx (i < ``fluid_columns`` where given: a layer on the floor, the lattice
+    empty above it up to the lid); with walls, ``cfg.layers`` columns
     continue the lattice beyond x = 0 (fixed) and x = L (``right_wall``,
     moving along y at ``right_velocity``). y = (j + 1/2) dy, z = (k + 1/2) dz.
     The global id numbers lattice sites (``(k Ny + row) ncol + col``), so each
@@ -72,11 +77,14 @@ def lattice(cfg, y_lo, y_hi, right_wall=WALL, right_velocity=0.0):
     col = np.arange(ncol)
     x = (col - nw + 0.5) * cfg.dx
     kind_col = np.where(col < nw, WALL, np.where(col >= nw + cfg.Nx, right_wall, FLUID))
+    if fluid_columns is not None:
+        keep = (col < nw + fluid_columns) | (col >= nw + cfg.Nx)
+        col, x, kind_col = col[keep], x[keep], kind_col[keep]
     rows = np.arange(cfg.Ny)
     rows = rows[((rows + 0.5) * cfg.dy >= y_lo) & ((rows + 0.5) * cfg.dy < y_hi)]
     layers = np.arange(cfg.Nz)
-    K, R, C = np.meshgrid(layers, rows, col, indexing="ij")
-    gid = ((K * cfg.Ny + R) * ncol + C).ravel()
+    K, R, C = np.meshgrid(layers, rows, np.arange(col.size), indexing="ij")
+    gid = ((K * cfg.Ny + R) * ncol + col[C]).ravel()
     pos = np.empty((gid.size, cfg.dim))
     pos[:, 0] = x[C.ravel()]
     pos[:, 1] = (R.ravel() + 0.5) * cfg.dy
