@@ -147,8 +147,8 @@ def test_dense_auto_with_the_midpoint_integrator_is_stable_for_2000_steps():
 
 
 # ---- theta_0 = 0.05, both ends of Re ----------------------------------------------------------------
-# (Re, bound on max |v_y - Eq. (8)| / V_w at the end); measured 0.0116 (Re = 400, t = 0.124 s),
-# 0.0053 (Re = 1, t = 1.56 ms) and 0.027 (Re = 2000, t = 0.124 s): docs/stability.md
+# (Re, bound on max |v_y - Eq. (8)| / V_w at the end); measured 0.0083 (Re = 400, t = 0.25 s),
+# 0.0037 (Re = 1, t = 4.0 ms) and 0.019 (Re = 2000, t = 0.25 s): docs/stability.md, "How to measure"
 DILUTE = [(400.0, 0.02), (1.0, 0.01), (2000.0, 0.04)]
 
 
@@ -182,7 +182,7 @@ def test_very_coarse_runs_and_reports_its_error(tmp_path):
     assert np.isfinite(p["vy"]).all() and (p["count"] == 10).all()   # 10 lattice rows per column bin, none lost
     err = [float(r[1]) for r in rows]
     print("N_x = 10 max errors at t = 0.01, 0.05, 0.1 s:", err)
-    assert max(err) < 0.15   # measured 0.094, 0.036, 0.026 (docs/stability.md)
+    assert max(err) < 0.15   # measured 0.0885, 0.0367, 0.0249 (docs/stability.md, "How to measure")
 
 
 # ---- a forced blow-up -----------------------------------------------------------------------------------
