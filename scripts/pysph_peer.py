@@ -9,7 +9,7 @@ PySPH's example (pysph/examples/couette.py) is taken as it is but for its resolu
 that the box holds N_x x N_x fluid particles, as parsph's ``scripts/bench.py --nx N_x`` case
 (L_y = L), and h = 1.25 dx as there (the same neighbours per particle). Each size runs twice (the first compiles PySPH's generated code into its cache); the
 second is timed around the solver's loop, ``--steps`` steps, no output. Compare with parsph's
-fluid particle-steps per second from bench.py in the same sitting (docs/performance.md).
+fluid particle-steps per second from bench.py, the two runs alternated on the same machine (docs/performance.md).
 """
 import argparse
 import json
