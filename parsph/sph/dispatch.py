@@ -1,9 +1,9 @@
 """Calling numba passes from Python at the cost of positional arguments: the version compiled for the
 arguments' types, looked up once per kind of arguments.
 
-The dispatcher types named-tuple arguments at every call (6 to 10 us a pass
-more than the same arrays as positional arguments: docs/performance.md);
-the compiled version takes them as they are.
+The dispatcher types named-tuple arguments at every call (5.5-9.1 us a pass on an empty input,
+against 0.6-2.7 us through the compiled version: docs/performance.md, "The step in compiled
+code, and its fixed cost"); the compiled version takes them as they are.
 """
 import numba
 import numpy as np
