@@ -82,7 +82,9 @@ class Rule(NamedTuple):
 
 
 class Modes(NamedTuple):
-    """Compile-time choices of the block (pass_data.switch values)."""
+    """Compile-time choices of the block (pass_data.switch values), passed to :func:`run_block` as arguments of
+    their own (``*modes``): numba prunes a branch on an empty tuple's ``len`` before typing only for an
+    argument, so that a serial block compiles no ``parallel=True`` pass and no midpoint integrator."""
     midpoint: tuple
     dt_auto: tuple
     threaded: tuple
@@ -112,28 +114,29 @@ def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, b
 
 
 @njit(cache=True)
-def _density(lst, parts, c, sw, gather, modes):
+def _density(lst, parts, c, sw, gather, threaded):
     """Eq. (3) into the list's sums (``lst.rho_sum``, the pairs' (dW/dr)/r): the particles' fields are
     not touched, so that the pass can run while the sync's all-reduce is in flight."""
-    if len(modes.threaded):
+    if len(threaded):
         equations.density_threaded(lst, parts, c, sw, gather)
     else:
         equations.density_serial(lst, parts, c, sw)
 
 
 @njit(cache=True)
-def _after_density(plan, lst, parts, c, sw, gather, modes, timers):
+def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
     """The owned particles' rho and factors, the ghosts' rho (one round), their factors, Eq. (5)."""
     t0 = wtime()
     n, n_own = lst.n, parts.n_own
-    if len(modes.threaded):
-        equations.particle_factors(lst, parts, c, sw, 0, n_own)
+    start = np.int64(0)  # not the literal 0: one version of the passes for both calls
+    if len(threaded):
+        equations.particle_factors(lst, parts, c, sw, start, n_own)
     else:
-        equations.particle_factors_serial(lst, parts, c, sw, 0, n_own)
+        equations.particle_factors_serial(lst, parts, c, sw, start, n_own)
     t1 = wtime()
     err = native_halo.refresh(plan, parts.rho, n_own)
     t2 = wtime()
-    if len(modes.threaded):
+    if len(threaded):
         equations.particle_factors(lst, parts, c, sw, n_own, n)
         equations.momentum_threaded(lst, parts, c, sw, gather)
     else:
@@ -147,12 +150,12 @@ def _after_density(plan, lst, parts, c, sw, gather, modes, timers):
 
 
 @njit(cache=True)
-def evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+def evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
     """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
     t0 = wtime()
-    _density(lst, parts, c, sw, gather, modes)
+    _density(lst, parts, c, sw, gather, threaded)
     timers[DENSITY] += wtime() - t0
-    return _after_density(plan, lst, parts, c, sw, gather, modes, timers)
+    return _after_density(plan, lst, parts, c, sw, gather, threaded, timers)
 
 
 @njit(cache=True)
@@ -196,11 +199,11 @@ def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
 
 
 @njit(cache=True)
-def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl, flags, flags_all,
-                   bad, skin, timers, mid, req, stat):
+def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, ctl, flags, flags_all,
+                   bad, skin, timers, req, stat):
     """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
-    the block's code (``mid``: at the midpoint integrator's middle evaluation). A stop agreed here is
-    kept in ctl[STOP_OUT].
+    the block's code (BAD, REBUILD; :func:`run_block` makes them BAD_MID, REBUILD_MID at the midpoint
+    integrator's middle evaluation). A stop agreed here is kept in ctl[STOP_OUT].
 
     Eq. (3) runs while the flags' all-reduce is in flight (it writes only the list's sums, which a
     rebuild or a bad state discards): the wait for the all-reduce comes after the pass, so a rank that
@@ -208,7 +211,7 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
     if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers, req):
         return MPI_ERROR
     t0 = wtime()
-    _density(lst, parts, c, sw, gather, modes)
+    _density(lst, parts, c, sw, gather, threaded)
     t1 = wtime()
     err = wait(req, stat)
     timers[DENSITY] += t1 - t0
@@ -216,25 +219,25 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
     if err:
         return MPI_ERROR
     if flags_all[0] != 0.0:
-        return BAD_MID if mid else BAD
+        return BAD
     if flags_all[1] != 0.0:
         ctl[STOP_OUT] = flags_all[1]
     if flags_all[2] != 0.0:
-        return REBUILD_MID if mid else REBUILD
-    if _after_density(plan, lst, parts, c, sw, gather, modes, timers):
+        return REBUILD
+    if _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
         return MPI_ERROR
     return -1
 
 
 @njit(cache=True)
-def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, lim, modes, ctl, ictl,
-              timers, scratch, req, stat):
+def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, lim, midpoint, dt_auto,
+              threaded, implicit, drag_limit, ctl, ictl, timers, scratch, req, stat):
     """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
 
     ``ctl``, ``ictl`` hold the clock (t, dt, step) and the inputs (target
     time, the linear limit's bucket, stop and forced-rebuild flags, the step
     to stop at, whether to evaluate the rates of the state first); ``lim`` the checks' limits
-    (guards.Limits); ``timers`` gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the
+    (guards.Limits); ``midpoint`` .. ``drag_limit`` the fields of :class:`Modes`; ``timers`` gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the
     all-reduces' buffers; ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
     """
     flags, flags_all = scratch[FLAGS], scratch[FLAGS_ALL]
@@ -243,17 +246,17 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     fastest = scratch[14 + N_REPORT:14 + N_REPORT + N_FASTEST]
     sums = scratch[14 + N_REPORT + N_FASTEST:16 + N_REPORT + N_FASTEST]
     sums_all = scratch[16 + N_REPORT + N_FASTEST:18 + N_REPORT + N_FASTEST]
-    pos, vel, acc, kind, drag, implicit = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag, modes.implicit
+    pos, vel, acc, kind, drag = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag
     n_own = parts.n_own
     if ctl[EVAL_FIRST] != 0.0:  # the rates of the state as it is (a list was just built)
         ctl[EVAL_FIRST] = 0.0
-        if evaluate(plan, lst, parts, c, sw, gather, modes, timers):
+        if evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
             return MPI_ERROR
     while ictl[STEP] < ictl[STOP_STEP]:
         # -- the step's dt
         land = False
-        if len(modes.dt_auto):
-            dt = _auto_dt(plan, parts, rule, ctl, maxima, maxima_all, modes.drag_limit)
+        if len(dt_auto):
+            dt = _auto_dt(plan, parts, rule, ctl, maxima, maxima_all, drag_limit)
             if dt == -2.0:
                 return MPI_ERROR
             if dt < 0.0:
@@ -270,38 +273,38 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         ctl[LAND] = 1.0 if land else 0.0
         # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
         t0 = wtime()
-        if len(modes.midpoint):
-            if len(modes.threaded):
+        if len(midpoint):
+            if len(threaded):
                 bad = integrators.midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                    motion.jump, rule.h, drag, implicit)
             else:
                 bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                           motion.jump, rule.h, drag, implicit)
             timers[INTEGRATE] += wtime() - t0
-            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
-                                  flags, flags_all, bad, rule.skin, timers, True, req, stat)
+            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, ctl,
+                                  flags, flags_all, bad, rule.skin, timers, req, stat)
             if code >= 0:
-                return code
+                return BAD_MID if code == BAD else REBUILD_MID if code == REBUILD else code
             t0 = wtime()
-            if len(modes.threaded):
+            if len(threaded):
                 bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                    motion.jump, rule.h, drag, implicit)
             else:
                 bad = integrators.midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                           motion.jump, rule.h, drag, implicit)
-        elif len(modes.threaded):
+        elif len(threaded):
             bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         else:
             bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         ictl[STEP] += 1
-        if len(modes.dt_auto):
+        if len(dt_auto):
             ctl[T] = ctl[T_TARGET] if land else ctl[T] + dt
         else:
             ctl[T] = ictl[STEP] * rule.dt
         timers[INTEGRATE] += wtime() - t0
         # -- sync, and the rates of the new state
-        code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, modes, ctl,
-                              flags, flags_all, bad, rule.skin, timers, False, req, stat)
+        code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, ctl,
+                              flags, flags_all, bad, rule.skin, timers, req, stat)
         if code >= 0:
             return code
         if ictl[STEP] % lim.every == 0:  # the run-time checks, before a stop as Python's loop orders them

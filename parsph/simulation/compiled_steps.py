@@ -58,7 +58,7 @@ class CompiledSteps:
             self._block_modes = modes
             self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
                                 N.local, N.box, N.work, R.consts, R.switches,
-                                R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, modes,
+                                R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, *modes,
                                 self._ctl, self._ictl, self._timers_block, self._scratch, self._req,
                                 self._stat)
             self._block_fn = None

@@ -15,7 +15,8 @@ from . import equations, pass_data
 from .dispatch import Calls
 
 PASSES = {name: getattr(equations, name) for name in ("density_serial", "density_threaded", "particle_factors",
-                                                      "momentum_serial", "momentum_threaded")}
+                                                      "particle_factors_serial", "momentum_serial",
+                                                      "momentum_threaded")}
 
 
 class Rates:
@@ -73,15 +74,17 @@ class Rates:
         n, n_own = lst.n, ps.n_own
         gather = self.gather_arrays() if numba.get_num_threads() > 1 else None
         t0 = clock()
+        # one thread: the serial factors, as the compiled block takes them (no parallel=True code compiled)
+        factors = "particle_factors" if gather is not None else "particle_factors_serial"
         if gather is not None:
             run("density_threaded", lst, parts, c, sw, gather)
         else:
             run("density_serial", lst, parts, c, sw)
-        run("particle_factors", lst, parts, c, sw, 0, n_own)
+        run(factors, lst, parts, c, sw, 0, n_own)
         t1 = clock()
         halo.refresh(ps, ps.rho)
         t2 = clock()
-        run("particle_factors", lst, parts, c, sw, n_own, n)
+        run(factors, lst, parts, c, sw, n_own, n)
         if gather is not None:
             run("momentum_threaded", lst, parts, c, sw, gather)
         else:
