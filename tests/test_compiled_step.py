@@ -43,6 +43,13 @@ CASES = {
                                       'numerics.drag_update="explicit"', 'numerics.dt="auto"')),
     "settling_gas": ("settling.toml", (SHORT, "output.t_end=0.002", 'gas.drag="gidaspow"', 'gas.flow="column"',
                                        "gas.U=0.05", 'numerics.integrator="midpoint"')),
+    # the layer scenes (floor walls of another mass than the fluid's, a free top): the sedimenting layer under
+    # the auto rule, the fluidised bed with the midpoint scheme
+    "sedimentation": ("sedimentation.toml", (SHORT, "domain.L=0.004", "numerics.Nx=20", "scene.height=0.002",
+                                             "output.t_end=0.05", "output.times=[0.01, 0.05]")),
+    "fluidized_bed": ("fluidized_bed.toml", (SHORT, "domain.L=0.004", "numerics.Nx=20", "scene.height=0.0016",
+                                             "output.t_end=0.02", "numerics.dt=1e-4",
+                                             'numerics.integrator="midpoint"')),
 }
 
 WATCHDOG_S = 300  # a rank stuck in a collective ends the job with every thread's traceback
@@ -130,7 +137,8 @@ def test_fallback_is_named():
 # ---- several ranks ------------------------------------------------------------------------------
 @needs_native
 @pytest.mark.mpi(min_size=2)
-@pytest.mark.parametrize("name", ["paper", "midpoint", "auto", "box", "settling", "box_gas", "settling_gas"])
+@pytest.mark.parametrize("name", ["paper", "midpoint", "auto", "box", "settling", "box_gas", "settling_gas",
+                                  "sedimentation", "fluidized_bed"])
 def test_compiled_on_several_ranks(name):
     """P ranks, compiled blocks: the state of the Python path on the same ranks, and of one rank."""
     comm = MPI.COMM_WORLD

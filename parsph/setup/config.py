@@ -117,8 +117,13 @@ class RunConfig:
 
     @property
     def n_particles(self):
-        """Fluid and wall particles of the lattice."""
-        return (self.Nx + (2 * self.layers if self.scene.walls else 0)) * self.Ny * self.Nz
+        """Fluid and wall particles the scene builds: the lattice's, less its empty columns above a layer
+        (a scene with a free surface fills the columns below ``scene.height`` only)."""
+        fluid = self.Nx
+        if self.scene.free_surface:
+            from .scenes import layer
+            fluid = min(self.Nx, layer.fluid_columns(self))
+        return (fluid + (2 * self.layers if self.scene.walls else 0)) * self.Ny * self.Nz
 
     @property
     def spacing(self):

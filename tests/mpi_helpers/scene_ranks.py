@@ -45,6 +45,12 @@ CASES = {
                                        'gas.drag="wen_yu"', "gas.velocity=[0.0, 0.5]", "gas.rho=1000.0",
                                        "gas.mu=1e-3", 'numerics.drag_update="explicit"', "numerics.dt=5e-5"],
                      0.05, 80),
+    # the layer scenes: a layer on the floor under clear water up to a lid, its floor walls holding the end
+    # state's theta and mass (no uniform mass), a free top with empty lattice above it
+    "sedimentation": ("sedimentation.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
+                                             "scene.height=0.002", "numerics.dt=5e-5"], 0.1, 80),
+    "fluidized_bed": ("fluidized_bed.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
+                                             "scene.height=0.0016", "numerics.dt=5e-5"], 0.1, 80),
 }
 FIELDS = ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")
 
@@ -58,9 +64,11 @@ def load(scene, *extra):
 
 
 def perturb(sim, amplitude, seed=7):
-    """Add a random velocity to the owned fluid particles: a function of the global id alone."""
-    ps, n = sim.ps, sim.ps.n_own
-    kick = np.random.default_rng(seed).normal(0.0, amplitude, (sim.cfg.n_particles, sim.cfg.dim))
+    """Add a random velocity to the owned fluid particles: a function of the global id alone (one draw per
+    lattice site, the empty sites above a layer's top included)."""
+    ps, n, cfg = sim.ps, sim.ps.n_own, sim.cfg
+    sites = (cfg.Nx + 2 * cfg.layers) * cfg.Ny * cfg.Nz
+    kick = np.random.default_rng(seed).normal(0.0, amplitude, (sites, cfg.dim))
     fluid = ps.kind[:n] == FLUID
     ps.vel[:n][fluid] += kick[ps.gid[:n][fluid]]
 
