@@ -19,6 +19,16 @@ from conftest import PAPER_TOML, ROOT, cli_env, run_cli
 BATCH = ROOT / "tests" / "mpi_helpers" / "cli_batch.py"
 
 PAPER = PAPER_TOML.read_text()
+SEDIMENTATION = (ROOT / "run" / "sedimentation.toml").read_text()
+BED = (ROOT / "run" / "fluidized_bed.toml").read_text()
+
+
+def no_gas(text):
+    """A run file without its [gas] section."""
+    out, n = re.subn(r"^\[gas\]\n(?:[^\[\n].*\n|\n)*", "", text, flags=re.M)
+    assert n == 1 and "drag =" not in out
+    return out
+
 
 
 def edit(pattern, repl):
@@ -98,6 +108,19 @@ CASES = {
                                         "--set", "gas.mu=1e-3", "--set", "material.d=1e-5",
                                         "--set", "numerics.drag_update=explicit"],
                                  ["numerics.dt", "stability limit", "(drag)"]),
+    # the layer scenes (sedimentation, fluidized_bed): what their check() refuses, and scene.height elsewhere
+    "layer_gravity_up": (SEDIMENTATION, ["--set", "body_force.g=[9.81, 0.0]"], ["body_force.g", "along -x"]),
+    "layer_gravity_along_y": (no_gas(SEDIMENTATION), ["--set", "body_force.g=[0.0, -9.81]"],
+                              ["body_force.g", "along -x"]),
+    "sedimentation_fed": (SEDIMENTATION, ["--set", "gas.U=0.01"], ["gas.U", "closed column", "fluidized_bed"]),
+    "sedimentation_stream": (SEDIMENTATION, ["--set", "gas.flow=stream"], ["gas.flow", '"column"']),
+    "bed_without_gas": (no_gas(BED), [], ["gas.U", "needs a gas column fed at U > 0"]),
+    "bed_U_zero": (BED, ["--set", "gas.U=0.0"], ["gas.U", "U > 0"]),
+    "layer_height_at_lid": (SEDIMENTATION, ["--set", "scene.height=0.0296"],
+                            ["scene.height", "less than 2h", "domain.L = 0.03 m"]),
+    "bed_expands_to_lid": (BED, ["--set", "gas.U=0.03"], ["domain.L", "expanded bed reaches 0.0449 m"]),
+    "bed_too_tall_to_expand": (BED, ["--set", "scene.height=0.0199"], ["domain.L", "expanded bed reaches"]),
+    "height_for_couette": (None, ["--set", "scene.height=0.005"], ["scene.height", "the couette scene has none"]),
 }
 
 

@@ -106,7 +106,8 @@ t_end = 0.001
 """
 
 
-@pytest.mark.parametrize("case", ["bad-value", "unknown-key", "missing-file", "not-toml", "unstable-dt"])
+@pytest.mark.parametrize("case", ["bad-value", "unknown-key", "missing-file", "not-toml", "unstable-dt",
+                                  "layer-scene"])
 def test_bad_run_file_exit_2_one_message(tmp_path, case):
     run_file, extra, expect = launch.PAPER, [], None
     if case == "bad-value":
@@ -121,6 +122,8 @@ def test_bad_run_file_exit_2_one_message(tmp_path, case):
         run_file.write_text("[domain\nL = \n")
     elif case == "unstable-dt":
         extra, expect = ["--set", "numerics.dt=1e-3"], "numerics.dt"
+    elif case == "layer-scene":  # a scene's check (Scene.check): the bed would expand past the lid
+        run_file, extra, expect = launch.REPO / "run" / "fluidized_bed.toml", ["--set", "gas.U=0.03"], "domain.L"
     r = launch.run(launch.mpirun_cmd(2, *launch.parsph_cmd("run", run_file, *extra, "--out", tmp_path / "out")),
                    timeout=HANG_GUARD)
     assert r.returncode == 2, r

@@ -353,6 +353,9 @@ def build(run_file):
     lat, hkey = _lattice(v)
     dim = lat["dim"]
     scene = get_scene(v["scene"]["name"])
+    if v["scene"]["height"] is not None and not scene.free_surface:
+        raise ConfigError("scene.height", f"is the height of a layer on the floor (the sedimentation and "
+                          f"fluidized_bed scenes); the {scene.name} scene has none: leave it out")
     layers = _wall_layers(v, lat, hkey, scene, get_kernel(num["kernel"], dim))
     g = _body_force(v, dim, scene)
     gas = _gas(v, dim, g, mat["rho_s"])
