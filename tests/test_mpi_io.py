@@ -36,7 +36,7 @@ WARNING = "rank 0 gathers and writes the output"
 FIELDS = ("id", "kind", "mass", "position", "velocity", "theta")
 ROOT_ATTRS = ("parsph_version", "run_file", "scene", "dim", "n_particles", "ranks", "time", "step", "index",
               "dt", "L", "Ly", "V_w", "nu", "kinds", "units", "snapshot", "error_field", "error_scale")
-PROFILE = ("x", "vy", "theta", "count", "vy_exact", "theta_exact")
+PROFILE = ("x", "vy", "theta", "count", "vy_exact", "theta_exact", "vx", "vx_exact")
 
 RUNS = {  # name: (ranks, extra environment); ranks 0 = no mpirun
     "serial": (0, {}),
@@ -129,14 +129,14 @@ def test_profile_matches_one_rank(runs, name):
         names = sorted(key for key in d1 if key.startswith("profile/"))
         assert names == sorted(key for key in d if key.startswith("profile/"))
         assert names == sorted(f"profile/{key}" for key in PROFILE)
-        for key in ("profile/x", "profile/count", "profile/vy_exact", "profile/theta_exact"):
+        for key in ("profile/x", "profile/count", "profile/vy_exact", "profile/theta_exact", "profile/vx_exact"):
             assert np.array_equal(d[key], d1[key], equal_nan=True), key
         for key in PROFILE:
             assert d1[f"profile/{key}"].shape == (NX,), key
         assert np.all(d1["profile/count"] == NY)
         assert np.all(np.isnan(d1["profile/theta_exact"]))  # Couette has no theta reference
         assert np.all(np.isfinite(d1["profile/vy_exact"]))
-        for key in ("profile/vy", "profile/theta"):
+        for key in ("profile/vy", "profile/theta", "profile/vx"):
             assert np.all(np.isfinite(d[key])), key
             # bin sums are all-reduced over ranks, so the order of the additions differs
             np.testing.assert_allclose(d[key], d1[key], rtol=1e-14, atol=1e-15, err_msg=key)

@@ -18,6 +18,8 @@ is a restart point. In a file:
     /profile/vy, theta     (Nx,)          mean v_y [m/s] and theta of the fluid particles per bin
     /profile/count         (Nx,)          fluid particles per bin
     /profile/vy_exact, theta_exact (Nx,)  the scene's reference (NaN where it has none)
+    /profile/vx, vx_exact  (Nx,)          mean v_x [m/s] per bin (a layer's settling velocity), and its
+                                          reference (NaN where the scene has none)
     /profile attrs         err_max, err_rms: |f - f_exact| / scale of the scene's error field
                            (root attrs error_field, error_scale: the scale at this time, for a
                            decaying flow the amplitude left), max and RMS over bins
@@ -54,13 +56,13 @@ outputs with serial h5py, no MPI needed).
 from .files import last_snapshot, output_files, read_profile, read_snapshot
 from .hdf5 import SERIAL_ENV, collective_dxpl, parallel_hdf5_available, read_rows, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS,
-                     RESTART_FIELDS, UNITS)
+                     PROFILE_OPTIONAL, PROFILE_UNITS, RESTART_FIELDS, UNITS)
 from .restart import read_particles, read_state
 from .write import Frame, Output, output_name
 from .xdmf import snapshot_entry, write_xdmf, xdmf_grid
 
 __all__ = ["BIN_ROWS", "FILE_DTYPES", "Frame", "MASS_UNITS", "MAX_BINS", "Output", "PARTICLE_FIELDS",
-           "PROFILE_FIELDS", "RESTART_FIELDS", "SERIAL_ENV", "UNITS", "collective_dxpl", "last_snapshot",
+           "PROFILE_FIELDS", "PROFILE_OPTIONAL", "PROFILE_UNITS", "RESTART_FIELDS", "SERIAL_ENV", "UNITS", "collective_dxpl", "last_snapshot",
            "output_files", "output_name", "parallel_hdf5_available", "read_particles", "read_profile",
            "read_rows", "read_snapshot", "read_state", "snapshot_entry", "write_rows", "write_xdmf", "xdmf_grid",
            "y_bins"]

@@ -7,7 +7,7 @@ import re
 import h5py
 import numpy as np
 
-from .layout import PARTICLE_FIELDS, PROFILE_FIELDS
+from .layout import PARTICLE_FIELDS, PROFILE_FIELDS, PROFILE_OPTIONAL
 
 
 def output_files(path):
@@ -31,7 +31,9 @@ def read_profile(path):
     for fn in files:
         with h5py.File(fn, "r") as f:
             g = f["profile"]
-            row = {key: g[key][()] for key in PROFILE_FIELDS}
+            row = {key: g[key][()] for key in PROFILE_FIELDS if key in g}
+            for key in PROFILE_OPTIONAL:  # a file written before v_x was profiled
+                row.setdefault(key, np.full(g["x"].shape, np.nan))
             row.update(time=f.attrs["time"], step=f.attrs["step"], err_max=g.attrs["err_max"],
                        err_rms=g.attrs["err_rms"], attrs=dict(f.attrs))
             rows.append(row)

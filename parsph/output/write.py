@@ -15,7 +15,8 @@ import numpy as np
 from .. import __version__
 from .files import output_files
 from .hdf5 import SERIAL_ENV, collective_dxpl, durable_rename, parallel_hdf5_available, write_rows, y_bins
-from .layout import BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, UNITS
+from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS, PROFILE_OPTIONAL,
+                     PROFILE_UNITS, UNITS)
 from .xdmf import entry_from_file, snapshot_entry, write_xdmf
 
 
@@ -96,8 +97,10 @@ class Output:
             g = f.create_group("profile")
             g.attrs["err_max"] = emax
             g.attrs["err_rms"] = erms
-            for key, unit in (("x", "m"), ("vy", "m/s"), ("theta", "1"), ("count", "1"),
-                              ("vy_exact", "m/s"), ("theta_exact", "1")):
+            for key in PROFILE_FIELDS:
+                if key in PROFILE_OPTIONAL and key not in prof:
+                    continue
+                unit = PROFILE_UNITS[key]
                 arr = np.asarray(prof[key], dtype=np.float64)
                 d = g.create_dataset(key, arr.shape, dtype="f8")
                 d.attrs["units"] = unit

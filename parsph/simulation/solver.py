@@ -98,7 +98,7 @@ class Simulation(CompiledSteps):
         self.limits = limits_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
         self._checked = -1       # the last step whose checks a compiled block ran
         self.nbins = cfg.Nx
-        self._sums = np.zeros((3, self.nbins))
+        self._sums = np.zeros((4, self.nbins))
         self._flags = np.zeros(3)
         self._flags_all = np.zeros(3)
         self._built = False      # no list yet: the first evaluation builds one
@@ -306,22 +306,24 @@ class Simulation(CompiledSteps):
 
     # ---- reductions ------------------------------------------------------------
     def profile(self):
-        """Global v_y(x) and theta(x): per-bin sums and counts all-reduced over ranks.
+        """Global v_y(x), theta(x) and v_x(x): per-bin sums and counts all-reduced over ranks.
 
-        Returns a dict: x, vy, theta, count, the scene's reference profiles
-        (vy_exact, theta_exact; NaN where it has none) and (err_max, err_rms)
+        Returns a dict: x, vy, theta, count, vx, the scene's reference profiles
+        (vy_exact, theta_exact, vx_exact; NaN where it has none) and (err_max, err_rms)
         of its error field, relative to ``cfg.error_scale(t)``.
         """
         ps, cfg = self.ps, self.cfg
         bin_sums(ps.pos, ps.vel, ps.theta, ps.kind, ps.n_own, cfg.L / self.nbins, self.nbins, self.period_x,
                  self._sums)
-        sums = self.collect.sum(self._sums)
+        # v_x's row reduced on its own: the other rows' all-reduce (its size, hence MPI's choice of algorithm
+        # and order of additions) is what it was before v_x was profiled
+        sums, vx = self.collect.sum(self._sums[:3]), self.collect.sum(self._sums[3])
         count = sums[2]
         with np.errstate(invalid="ignore", divide="ignore"):
             out = {"x": bin_centres(cfg.L, self.nbins), "vy": sums[0] / count, "theta": sums[1] / count,
-                   "count": count}
+                   "count": count, "vx": vx / count}
         ref = self.scene.reference(cfg, out["x"], self.t) if self.scene.reference else {}
-        for key in ("vy", "theta"):
+        for key in ("vy", "theta", "vx"):
             out[key + "_exact"] = ref.get(key, np.full(self.nbins, np.nan))
         field = self.scene.error_field
         scale = cfg.error_scale(self.t)

@@ -1,4 +1,4 @@
-"""The reduced profiles v_y(x) and theta(x): fluid particles binned in x.
+"""The reduced profiles v_y(x), theta(x) and v_x(x): fluid particles binned in x.
 
 Bins are the lattice columns, [i dx, (i+1) dx) for i = 0 .. Nx-1. Errors
 against a reference are normalised by a scale (V_w for Couette): the max norm
@@ -12,7 +12,8 @@ from .particles import FLUID
 
 @njit(cache=True)
 def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, period, sums):
-    """Sums of v_y (row 0), theta (row 1) and counts (row 2) of owned fluid particles per x bin.
+    """Sums of v_y (row 0), theta (row 1), counts (row 2) and v_x (row 3: a layer's settling velocity) of
+    owned fluid particles per x bin.
 
     ``period``: the length of x where it is periodic (positions are wrapped
     only at rebuilds of the neighbour list), 0 between walls.
@@ -21,6 +22,7 @@ def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, period, sums):
         sums[0, b] = 0.0
         sums[1, b] = 0.0
         sums[2, b] = 0.0
+        sums[3, b] = 0.0
     for i in range(n_own):
         if kind[i] != FLUID:
             continue
@@ -35,6 +37,7 @@ def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, period, sums):
         sums[0, b] += vel[i, 1]
         sums[1, b] += theta[i]
         sums[2, b] += 1.0
+        sums[3, b] += vel[i, 0]
 
 
 def bin_centres(L, nbins):

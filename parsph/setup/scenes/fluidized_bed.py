@@ -5,7 +5,7 @@ its steady column and stays there. The layer's parts are in :mod:`.layer`.
 
 Reference (theta, errors relative to theta0): the steady column with the bed's mass and a free top
 (:func:`parsph.physics.gas_references.steady_column`), the state the bed reaches; its interior is theta* where
-the bed is much taller than its compression length.
+the bed is much taller than its compression length; v_x 0 in it (NaN above its top, where it has no solids).
 """
 import math
 
@@ -17,7 +17,7 @@ from . import Scene, Terms, layer
 
 def reference(cfg, x, t):
     theta = layer.end_state(cfg).theta_at(np.maximum(np.asarray(x, dtype=float), 0.0))
-    return {"theta": theta, "vy": np.zeros_like(theta)}
+    return {"theta": theta, "vy": np.zeros_like(theta), "vx": np.where(theta > 0.0, 0.0, np.nan)}
 
 
 def check(cfg):

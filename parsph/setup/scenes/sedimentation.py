@@ -6,7 +6,8 @@ the same hydrostatic end state). The layer's parts are in :mod:`.layer`.
 Reference (theta, errors relative to theta0): Kynch's profile until the top interface meets the rising
 sediment, 0 above H(t) = H0 + v0 t, theta0 between the sediment front h(t) and H(t), the sediment's mean
 theta_packed below h(t); the hydrostatic sediment after (the end state, reached as it consolidates). Without
-a gas, the hydrostatic sediment at all times (the end state).
+a gas, the hydrostatic sediment at all times (the end state). v_x (the profile's settling velocity): Kynch's v0
+in the suspension, 0 in the sediment and in the end state, none (NaN) above the top.
 """
 import math
 
@@ -20,14 +21,16 @@ def reference(cfg, x, t):
     x = np.asarray(x, dtype=float)
     end = layer.end_state(cfg)
     final = end.theta_at(np.maximum(x, 0.0))
+    at_rest = {"theta": final, "vy": np.zeros_like(final), "vx": np.where(final > 0.0, 0.0, np.nan)}
     if cfg.gas is None:
-        return {"theta": final, "vy": np.zeros_like(final)}
+        return at_rest
     k = layer.sedimentation(cfg)
     if t > k.meeting_time:
-        return {"theta": final, "vy": np.zeros_like(final)}
+        return at_rest
     top, front = k.H0 + k.settling_velocity * t, k.front_speed * t
     theta = np.where(x > top, 0.0, np.where(x > front, cfg.theta0, k.theta_packed))
-    return {"theta": theta, "vy": np.zeros_like(theta)}
+    vx = np.where(x > top, np.nan, np.where(x > front, k.settling_velocity, 0.0))
+    return {"theta": theta, "vy": np.zeros_like(theta), "vx": vx}
 
 
 def check(cfg):
