@@ -63,8 +63,20 @@ def _read(path, fn):
         raise UsageError(f"cannot read output {path}: {e}") from None
 
 
+def print_layer(path):
+    """A layer scene's few lines beyond the error table (:func:`.layer_report.summary`); nothing for others."""
+    from parsph.output import read_profile
+    from . import layer_report
+    p = read_profile(path)
+    cfg = layer_report.layer_run(p)
+    if cfg is not None:
+        for line in layer_report.summary(path, p, cfg):
+            print(line)
+
+
 def cmd_check(args):
     worst = _read(args.output, lambda p: print_table(p, args.tol))
+    _read(args.output, print_layer)
     if worst is None:
         print("parsph check: nothing to check against")
         return 0
@@ -106,9 +118,17 @@ def cmd_plot(args):
     import matplotlib.pyplot as plt
     import numpy as np
     from parsph.output import output_files, read_profile
+    from . import layer_report
     p = _read(args.output, read_profile)
     first = output_files(args.output)[0]
     png = args.png or profile_png(first)
+    cfg = layer_report.layer_run(p)
+    if cfg is not None:  # a layer: theta(x) and v_x(x), and the interface (or the bed's top and interior) in time
+        print(f"wrote {layer_report.save(layer_report.profile_figure(p, cfg), png)}")
+        top = layer_report.top_png(png) if png.endswith("_profile.png") else re.sub(r"(\.png)?$", "_interface.png",
+                                                                                     png, count=1)
+        print(f"wrote {_read(args.output, lambda path: layer_report.save(layer_report.top_figure(path, p, cfg), top))}")
+        return 0
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
     colors = plt.cm.viridis(np.linspace(0, 0.9, max(1, len(p["time"]))))
     L = p["attrs"]["L"]
