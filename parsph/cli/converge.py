@@ -46,8 +46,25 @@ def _plan(args):
             raise UsageError(str(e) if fam == "given" else f"family {fam}: {e}") from None
         if len(config.build(plan.levels[-1].run_file).output_times) == 0:
             raise UsageError("output.times is empty: the levels are compared at the output times")
+        _same_layer(plan)
         plans.append(plan)
     return plans
+
+
+def _same_layer(plan):
+    """A layer scene's levels start from one layer: scene.height (fixed in metres) a whole number of the
+    coarsest level's dx, since the lattice fills round(H0 / dx) columns (UsageError naming scene.height)."""
+    from parsph.setup import config
+    from parsph.setup.scenes import layer
+    cfgs = [config.build(level.run_file) for level in plan.levels]
+    if not cfgs[0].scene.free_surface:
+        return
+    heights = [layer.layer_height(c) for c in cfgs]
+    if max(heights) - min(heights) > 1e-9 * max(heights):
+        c = cfgs[0]
+        raise UsageError(f"scene.height: {layer.height(c):g} m is not a whole number of the coarsest level's "
+                         f"dx = {c.dx:g} m, so the levels' layers would differ "
+                         f"({', '.join(f'{h:g}' for h in heights)} m): give a multiple of it")
 
 
 def _converge(comm, args, say, signals):
