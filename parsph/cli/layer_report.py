@@ -118,8 +118,9 @@ def summary(path, p, cfg):
         return lines
     interior = interior_theta(p, cfg)
     lo, hi = interior_span(cfg)
+    steady = end.height_of(min(_level(cfg), end.theta_floor))
     lines.append(f"bed interior ({lo * 1e3:.3g} to {hi * 1e3:.3g} mm) against theta* = {end.theta_star:.4g}, "
-                 f"top (theta_bar = theta*/2) against the steady column's {refs[0] * 1e3 if refs.size else math.nan:.4g} mm:")
+                 f"top (theta_bar = theta*/2) against the steady column's {steady * 1e3:.4g} mm:")
     tops_at = dict(zip(times, tops))
     for t, th in zip(p["time"], interior):
         top = tops_at.get(float(t), math.nan)
