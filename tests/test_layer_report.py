@@ -97,6 +97,10 @@ def test_plot_layer(runs, cli, name):
     for png in (runs[name] / f"{name}_profile.png", runs[name] / f"{name}_interface.png"):
         assert f"wrote {png}" in out
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # the particles coloured by v_x, the floor and the lid marked
+    rc, out, err = cli("plot", runs[name], "--particles", "--field", "vx")
+    assert rc == 0, err
+    assert (runs[name] / f"{name}_vx_0000.png").is_file()
 
 
 def test_layer_lines_without_snapshots(tmp_path, cli):

@@ -16,6 +16,7 @@ from parsph.errors import UsageError
 FIELDS = {"vy": ("velocity", 1, "v_y [m/s]"), "vx": ("velocity", 0, "v_x [m/s]"),
           "theta": ("theta", None, "theta (volume fraction) [1]")}
 FLUID, MOVING = 0, 2  # particle kinds (docs/output.md)
+LAYER_SCENES = ("sedimentation", "fluidized_bed")  # a layer on the floor x = 0 under a lid at x = L
 WALL_COLOUR = "tan"   # not in the colour map, and not a grey that anti-aliased text makes
 
 
@@ -86,9 +87,13 @@ def draw(snap, field, limits, png):
     # round markers about 0.8 lattice spacing wide (points^2), from the axes' size in points
     bbox = ax.get_window_extent().transformed(fig.dpi_scale_trans.inverted())
     spacing = np.sqrt((xhi - xlo) * Ly / max(1, len(x)))  # the side of the area per particle
+    if a.get("scene", "") in LAYER_SCENES:  # most of the box is empty above a layer: the lattice's row spacing
+        rows = np.unique(np.round(y, 12))
+        spacing = float(np.median(np.diff(rows))) if rows.size > 1 else spacing
     side = 72.0 * bbox.width * spacing / (xhi - xlo)
     s = max(0.05, (0.8 * side) ** 2)
     fluid = k == FLUID
+    layer = a.get("scene", "") in LAYER_SCENES
     sc = ax.scatter(x[fluid] * 1e3, y[fluid] * 1e3, c=values[fluid], s=s, marker="o", linewidths=0,
                     cmap="viridis", vmin=limits[0], vmax=limits[1])
     if (~fluid).any():
@@ -101,12 +106,14 @@ def draw(snap, field, limits, png):
                 continue
             moving = (k[side & ~fluid] == MOVING).any()
             label = f"moving wall, v_y = {vw:g} m/s" if moving else "fixed wall"
+            if layer:
+                label = "floor" if xw == 0.0 else "lid"
             ax.axvline(xw * 1e3, color="k", lw=1.0)
             ax.text(xw * 1e3, 0.98 * Ly * 1e3, f" {label} ", rotation=90, va="top",
                     ha="left" if xw == 0.0 else "right", fontsize=7, color="k",
                     bbox=dict(facecolor="white", alpha=0.6, lw=0, pad=0.5))
         ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), fontsize=7, frameon=False)
-    ax.set_xlabel("x (wall-normal) [mm]")
+    ax.set_xlabel("x (height above the floor) [mm]" if layer else "x (wall-normal) [mm]")
     ax.set_ylabel("y (streamwise) [mm]")
     ax.set_title(f"{a.get('scene', '')} t = {float(a['time']):g} s, {len(kind)} particles{where}", fontsize=9,
                  pad=18 if (~fluid).any() else 6)
