@@ -338,6 +338,18 @@ def state_limit(h, vmax, amax, drag_max):
     return min(advection_limit(h, vmax), force_limit(h, amax), drag_limit(drag_max))
 
 
+@njit(cache=True)
+def landing(dt, remaining):
+    """(dt, lands) of the auto rule's next step with ``remaining`` seconds to the next output or the end:
+    the whole rest where it fits in one step (lands), half of it where it fits in two (two equal steps,
+    not a sliver), else dt. Both paths of the step take it from here."""
+    if remaining <= dt:
+        return remaining, True
+    if remaining < 2 * dt:
+        return 0.5 * remaining, False
+    return dt, False
+
+
 def limits(theta, vmax, amax, material, lattice, terms=Terms(), integrator="paper", drag_max=0.0):
     """The limits [s] at (theta, |v|_max, |a|_max) (inf where absent): the linear one under its term's
     name, ``advection`` 0.5 h / |v|_max, ``force`` 0.25 sqrt(h / |a|_max) and, where ``drag_max`` (the

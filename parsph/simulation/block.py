@@ -39,7 +39,7 @@ from parsph.sph import equations
 from parsph.sph import integrators
 from parsph.sph.neighbours import block_spread
 from parsph.sph.particles import drag_maximum, state_maxima
-from parsph.physics.limits import state_limit
+from parsph.physics.limits import landing, state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
 
 EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = range(9)
@@ -261,12 +261,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                 return MPI_ERROR
             if dt < 0.0:
                 return NEED_LIMIT
-            remaining = ctl[T_TARGET] - ctl[T]
-            land = remaining <= dt
-            if land:
-                dt = remaining
-            elif remaining < 2 * dt:  # two equal steps, not a sliver
-                dt = 0.5 * remaining
+            dt, land = landing(dt, ctl[T_TARGET] - ctl[T])
         else:
             dt = rule.dt
         ctl[DT] = dt

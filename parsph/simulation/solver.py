@@ -444,12 +444,7 @@ class Simulation(CompiledSteps):
         if cfg.dt_auto:
             dt = cfg.get("numerics.dt_safety") * self.stable_dt()
             target = cfg.t_end if target is None else target
-            remaining = target - self.t
-            land = remaining <= dt
-            if land:
-                dt = remaining
-            elif remaining < 2 * dt:  # two equal steps, not a sliver
-                dt = 0.5 * remaining
+            dt, land = limits.landing(dt, target - self.t)
             self.dt = dt
             self.advance(dt, stop_requested)
             if land:
