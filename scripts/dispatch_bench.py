@@ -23,7 +23,7 @@ import numpy as np
 from mpi4py import MPI
 
 from parsph.simulation.solver import Simulation
-from parsph.sph import equations, neighbours, pass_data, dispatch
+from parsph.sph import cells, equations, pass_data, dispatch
 from parsph.studies.cases import bench
 
 
@@ -41,7 +41,7 @@ def empty_calls(sim):
         "particle_factors": (equations.particle_factors, (lst, parts, c, sw, 0, 0)),
         "momentum_serial": (equations.momentum_serial, (lst, parts, c, sw)),
         "momentum_threaded": (equations.momentum_threaded, (lst, parts, c, sw, gather)),
-        "block_spread": (neighbours.block_spread, (ps.disp, N.cells._replace(n=0), empty_box, N.box, N.work)),
+        "patch_spread": (cells.patch_spread, (ps.disp, N.cells._replace(n=0), empty_box, N.box, N.work)),
     }
 
 

@@ -31,7 +31,7 @@ TABLE = [
 ]
 WORDS = {"errors": "parsph.errors", "physics": "parsph.physics", "sph": "parsph.sph",
          "sph's particles": "parsph.sph.particles", "particle kinds": "parsph.sph.particles",
-         "cell grid": "parsph.sph.neighbours", "the cell grid": "parsph.sph.neighbours",
+         "cell grid": "parsph.sph.cells", "the cell grid": "parsph.sph.cells",
          "integrator names": "parsph.sph.integrators", "its version": "parsph"}
 EXTERNAL = ("mpi4py", "h5py")   # checked: MPI and parallel HDF5 only where the table says (numpy, numba: anywhere)
 # outside the table: the package's __init__ (the version) applies the numba settings on import; python -m parsph
@@ -203,9 +203,9 @@ def test_rules_read_as_meant():
     r = rules()
     assert r["parsph.output"] == ({"parsph"}, {"h5py", "mpi4py"})
     assert r["parsph.physics"] == ({"parsph.errors"}, set())
-    assert r["parsph.parallel"] == ({"parsph.errors", "parsph.sph.particles", "parsph.sph.neighbours"}, {"mpi4py"})
+    assert r["parsph.parallel"] == ({"parsph.errors", "parsph.sph.particles", "parsph.sph.cells"}, {"mpi4py"})
     assert r["parsph.setup"][0] == {"parsph.errors", "parsph.physics", "parsph.sph.particles", "parsph.sph.integrators",
-                                    "parsph.sph.neighbours"}
+                                    "parsph.sph.cells"}
     assert not _within("parsph.sph.equations", r["parsph.parallel"][0])
     assert r["parsph.studies"][1] == {"h5py", "mpi4py"} and "parsph.cli" not in r["parsph.studies"][0]
 

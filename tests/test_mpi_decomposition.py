@@ -15,7 +15,7 @@ from mpi4py import MPI
 from parsph.errors import DecompositionError
 from parsph.parallel.slab_ring import SlabRing
 from parsph.parallel.slabs import fits, max_ranks, slab_bounds
-from parsph.sph.neighbours import CELLS_PER_CUTOFF, Grid
+from parsph.sph.cells import CELLS_PER_CUTOFF, Grid
 
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
 import launch  # noqa: E402

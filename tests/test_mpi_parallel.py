@@ -26,7 +26,7 @@ from parsph.setup import config
 from parsph.sph.particles import FLUID, MOVING_WALL, WALL
 from parsph.errors import DecompositionError
 from parsph.parallel.slabs import min_length
-from parsph.sph.neighbours import CELLS_PER_CUTOFF
+from parsph.sph.cells import CELLS_PER_CUTOFF
 from parsph.simulation.solver import Simulation
 
 PAPER = Path(__file__).resolve().parents[1] / "run" / "couette_paper.toml"

@@ -12,8 +12,8 @@ A particle in a dense cluster with ~100 neighbours gets them all (the list
 has no fixed width per particle), and a runaway particle does not make the
 cell grid grow.
 
-The validity test itself (``neighbours.block_spread``) against a brute force
-over every block of random displacements in 2-D and 3-D, and a plate sliding
+The validity test itself (``cells.patch_spread``) against a brute force
+over every patch of random displacements in 2-D and 3-D, and a plate sliding
 past resting fluid in 2-D and 3-D (the case where the test's bound is tight)
 against a fresh Eq. (3) sum at every step: these catch a test 1.5x too lax,
 which the scenes above do not.
@@ -27,7 +27,7 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.setup.runfile import RunFile
-from parsph.sph.neighbours import CELLS_PER_CUTOFF, CellBox, CellOrder, block_spread, build_pairs
+from parsph.sph.cells import CELLS_PER_CUTOFF, CellBox, CellOrder, patch_spread, build_pairs
 from parsph.sph.particles import FLUID
 from parsph.simulation.solver import Simulation
 
@@ -170,13 +170,13 @@ def test_pair_count_and_a_list_too_short():
     assert build_pairs(ps.ref, N.need, N.cells, N.local, N.grid.cutoff, *short) == -want
 
 
-# ---- the validity test (neighbours.block_spread) against brute force --------------------------------------
+# ---- the validity test (cells.patch_spread) against brute force --------------------------------------
 M = CELLS_PER_CUTOFF
 
 
 def random_cells(rng, size):
     """Particles in a local box of ``size`` cells (x, y, z): 0 to 4 per cell (some cells empty), and
-    the CellOrder block_spread reads (it uses the cell of each particle, not the order)."""
+    the CellOrder patch_spread reads (it uses the cell of each particle, not the order)."""
     ncells = int(np.prod(size))
     counts = rng.integers(0, 5, ncells)
     counts[rng.random(ncells) < 0.15] = 0
@@ -188,9 +188,9 @@ def random_cells(rng, size):
 
 
 def brute_spread(disp, cells, local):
-    """(the largest bounding-box diagonal, the largest |d_i - d_j|) over the blocks of (2M+1)^d cells
+    """(the largest bounding-box diagonal, the largest |d_i - d_j|) over the patches of (2M+1)^d cells
     centred in ``local``'s centre range, clipped at the box, an empty cell counting as displacement 0:
-    every particle and every pair of each block, in numpy."""
+    every particle and every pair of each patch, in numpy."""
     size = local.size
     ix = np.stack(np.unravel_index(cells.cell[:cells.n], tuple(size[::-1]))[::-1], axis=1)  # (x, y, z)
     occupied = np.zeros(tuple(size), bool)
@@ -215,9 +215,9 @@ def brute_spread(disp, cells, local):
 
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("seed", [1, 2, 3])
-def test_block_spread_is_the_largest_displacement_box_of_a_block(dim, seed):
-    """block_spread against the brute force of every block: equal to the largest bounding-box diagonal
-    (to rounding), at least the largest relative displacement of two particles of a block (what the
+def test_patch_spread_is_the_largest_displacement_box_of_a_patch(dim, seed):
+    """patch_spread against the brute force of every patch: equal to the largest bounding-box diagonal
+    (to rounding), at least the largest relative displacement of two particles of a patch (what the
     list's proof needs) and at most sqrt(dim) times it; with displacements along y alone (a shear) the
     three are one number, so a test lax by any factor is caught."""
     rng = np.random.default_rng(seed)
@@ -230,13 +230,13 @@ def test_block_spread_is_the_largest_displacement_box_of_a_block(dim, seed):
     box = np.zeros((6, int(np.prod(size))))
     work = np.zeros_like(box)
     disp = rng.normal(0.0, 1e-4, (cells.n, dim)) + 3e-4  # a common drift: only relative motion counts
-    spread = block_spread(disp, cells, local, box, work)
+    spread = patch_spread(disp, cells, local, box, work)
     want_box, want_pairs = brute_spread(disp, cells, local)
     assert spread == pytest.approx(want_box, rel=1e-13)
     assert want_pairs * (1 - 1e-13) <= spread <= math.sqrt(dim) * want_pairs * (1 + 1e-13)
     shear = np.zeros_like(disp)
     shear[:, 1] = rng.uniform(-1e-4, 1e-4, cells.n)
-    spread = block_spread(shear, cells, local, box, work)
+    spread = patch_spread(shear, cells, local, box, work)
     want_box, want_pairs = brute_spread(shear, cells, local)
     assert spread == pytest.approx(want_box, rel=1e-13) and spread == pytest.approx(want_pairs, rel=1e-13)
 
@@ -265,7 +265,7 @@ def fluid_density_brute_force(sim):
 @pytest.mark.parametrize("dim", [2, 3])
 def test_plate_sliding_past_resting_fluid_against_a_fresh_sum_every_step(dim):
     """Couette flow without viscosity (pressure on): the plate slides at 0.2 m/s past fluid that stays
-    at rest, the sharpest shear a list can see; a block's displacement box is then the plate's
+    at rest, the sharpest shear a list can see; a patch's displacement box is then the plate's
     displacement relative to the fluid, which the pair (plate particle, fluid particle) 1 dx apart
     across the plate, 3 dx apart along y, also has. That pair starts at sqrt(10) dx = 3.16 dx, beyond
     r_c = 2h + skin = 3 dx, and comes within 2h = 2.5 dx after sliding 0.709 dx: a list that is

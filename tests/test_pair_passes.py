@@ -108,21 +108,21 @@ def case(request):
 def test_serial_passes_equal_the_scalar_loops(case):
     name, sim, args, ref, _ = case
     lst = args[0]
-    assert lst.npairs > 2 * equations.BLOCK or name == "couette_3d", "the list should span several blocks"
+    assert lst.npairs > 2 * equations.CHUNK or name == "couette_3d", "the list should span several chunks"
     assert np.abs(ref["acc"]).max() > 0 and len(ref["pairs"]["j"]) < lst.npairs  # pairs in the skin too
     equations.density_serial(*args)
     equations.momentum_serial(*args)
     assert_same(ref, serial_results(args), name)
 
 
-@pytest.mark.parametrize("block", [1, 5, 64])
-def test_any_block_gives_the_same_sums(case, block):
-    """Blocks shorter than a particle's pairs: each takes one place's row whole, and a place's sum, its
+@pytest.mark.parametrize("chunk", [1, 5, 64])
+def test_any_chunk_gives_the_same_sums(case, chunk):
+    """Chunks shorter than a particle's pairs: each takes one place's row whole, and a place's sum, its
     part of the compact list and the momentum pass on it come out the same."""
     name, sim, args, ref, _ = case
-    equations.density_blocks(*args, block)
+    equations.density_chunks(*args, chunk)
     equations.momentum_serial(*args)
-    assert_same(ref, serial_results(args), f"{name}, block {block}")
+    assert_same(ref, serial_results(args), f"{name}, chunk {chunk}")
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="numba allows one thread here")

@@ -11,7 +11,7 @@ At a rebuild (:meth:`SlabRing.wrap`, :meth:`~SlabRing.migrate`, :meth:`~SlabRing
 particles migrate to the rank that owns their y (several slabs away if they
 must), and each rank receives as ghosts the whole rows of cells of the
 neighbour list's grid that it needs (the rows within M cells of its own:
-every block of the validity test centred on its rows is then complete, and
+every patch of the validity test centred on its rows is then complete, and
 every particle within r_c of it is there). Periodic images of the directions
 a rank holds whole (x without walls, z in 3-D) are appended as copies.
 Between rebuilds particles stay where they are, even outside their slab:
@@ -39,7 +39,7 @@ from . import native_mpi
 from .build_loops import ghost_places, sort_strays, wrap_fields
 from .halo_rows import copy_images, pack_forward, pack_ghosts, pack_scalar, unpack_forward, unpack_ghosts, unpack_scalar
 from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
-from parsph.sph.neighbours import CellBox
+from parsph.sph.cells import CellBox
 from parsph.sph.particles import pack_rows
 from parsph.errors import DecompositionError
 from .slabs import cell_rows, fits, max_ranks, min_length, slab_bounds
@@ -345,7 +345,7 @@ class SlabRing:
         return coords
 
     def local_box(self, ps_dim):
-        """This rank's local cell box (a :class:`parsph.sph.neighbours.CellBox`) in global integer cell coordinates.
+        """This rank's local cell box (a :class:`parsph.sph.cells.CellBox`) in global integer cell coordinates.
 
         Rows: this slab's own rows and M more on each side; x and z: the whole
         grid, plus M image rows at each periodic end. Block centres: the slab's

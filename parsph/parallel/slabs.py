@@ -34,7 +34,7 @@ def fits(Ly, P, side, ny, m):
 
 
 def rows_of_length(Ly, cutoff, m):
-    """(side, ny) of the y rows: ny = floor(m Ly / cutoff) rows tile [0, Ly) (neighbours.Axis)."""
+    """(side, ny) of the y rows: ny = floor(m Ly / cutoff) rows tile [0, Ly) (cells.Axis)."""
     ny = max(1, int(math.floor(m * Ly / cutoff * (1 + 1e-12))))
     return Ly / ny, ny
 

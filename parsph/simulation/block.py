@@ -37,7 +37,7 @@ from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
 from parsph.sph import equations
 from parsph.sph import integrators
-from parsph.sph.neighbours import block_spread
+from parsph.sph.cells import patch_spread
 from parsph.sph.particles import drag_maximum, state_maxima
 from parsph.physics.limits import landing, state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
@@ -102,7 +102,7 @@ def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, b
     for k in range(uintp(parts.n_own * parts.pos.shape[1])):  # flat: a vector loop
         d[k] = pos[k] - ref[k]
     err = native_halo.forward(plan, parts.pos, parts.vel, motion.disp, parts.n_own)
-    spread = block_spread(motion.disp, cells, local, box, work)
+    spread = patch_spread(motion.disp, cells, local, box, work)
     flags[0] = bad
     flags[1] = ctl[STOP_IN]
     flags[2] = 1.0 if (ctl[FORCE_IN] != 0.0 or not spread < skin) else 0.0

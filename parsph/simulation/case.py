@@ -18,7 +18,7 @@ from parsph.output import Output
 from parsph.parallel import slabs
 from parsph.physics.kernels import get_kernel
 from parsph.setup.config import bytes_per_particle
-from parsph.sph.neighbours import grid_for
+from parsph.sph.cells import grid_for
 from .solver import Simulation
 
 

@@ -11,7 +11,7 @@ One step (state at t_n -> t_{n+1}), paper integrator:
   [output, checks]
   advance:   Eqs. (6)-(7) for the owned particles
 
-The neighbour list (:mod:`parsph.sph.neighbours`) is rebuilt only when the
+The neighbour list (:mod:`parsph.sph.cells`) is rebuilt only when the
 test says it may miss a pair (and at the first step: a snapshot keeps the
 positions of the last build, so a restart builds the same list and continues
 bit for bit). Every rank takes the same decision (an all-reduce of a
@@ -35,7 +35,7 @@ from parsph.errors import Interrupted
 from .guards import limits_of, run_checks
 from parsph.physics.kernels import get_kernel
 from parsph.physics.lattice_sums import lattice_sum
-from parsph.sph.neighbours import grid_for
+from parsph.sph.cells import grid_for
 from parsph.output import Frame, read_particles
 from parsph.sph.particles import FLUID, Particles, drag_maximum, state_maxima
 from parsph.sph.profiles import bin_centres, bin_sums, errors

@@ -20,7 +20,7 @@
   ``v_ij = beta (v_i - v_j)``, ``beta = min(beta_max, 1 + d_j/d_i)``, d the
   distance to the wall's plate (x = 0 or x = L).
 
-Each pair (i, j) of :mod:`parsph.sph.neighbours` is evaluated once: W and
+Each pair (i, j) of :mod:`parsph.sph.cells` is evaluated once: W and
 (dW/dr)/r in the density pass, and in the momentum pass the two factors
 symmetric in i and j: ``P`` (pressure, G at the pair mean factorised as
 10^G_b 10^(G_a theta_i/2) 10^(G_a theta_j/2)) and ``V`` (viscous). Particle
@@ -45,7 +45,7 @@ kernels (numba's parallel loops misread the arrays of a named tuple).
 
 How the loops are written for speed (docs/performance.md, "Pair passes"):
 the density pass takes the particles' rows a few at a time, about
-:data:`BLOCK` pairs. A scalar loop computes |r_ij|^2 (LLVM vectorises no
+:data:`CHUNK` pairs. A scalar loop computes |r_ij|^2 (LLVM vectorises no
 loop that loads through an index and stores, as it cannot rule out that the
 two overlap; into a buffer on the stack it does, with AVX-512 gathers that
 measured slower than scalar loads on AMD Zen 4) and compacts the pairs
@@ -79,7 +79,7 @@ from parsph.physics.kernels import kernel_w_f
 from .particles import FLUID
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
-BLOCK = 1024  # pairs per block of the density pass's vector loop (its scratch: 8 KiB)
+CHUNK = 1024  # pairs per chunk of the density pass's vector loop (its scratch: 8 KiB)
 
 
 # ---- Eq. (3) ------------------------------------------------------------------------------------
@@ -125,24 +125,24 @@ def density_serial(lst, parts, c, sw):
     neighbours). Its sum starts with its own term, gets the pairs of earlier
     particles as they come, then its own pairs: the pair order.
     """
-    density_blocks(lst, parts, c, sw, BLOCK)
+    density_chunks(lst, parts, c, sw, CHUNK)
 
 
 @njit(cache=True, error_model="numpy")
-def density_blocks(lst, parts, c, sw, block):
-    """:func:`density_serial` taking the places' rows a few at a time, about ``block`` pairs (at least one
+def density_chunks(lst, parts, c, sw, chunk):
+    """:func:`density_serial` taking the places' rows a few at a time, about ``chunk`` pairs (at least one
     row): their squared distances, each pair's stored at the end of the compact list and the count advanced
     only for those within 2h (the reference loops' test, without a branch); W and (dW/dr)/r of those pairs
     (a vector loop, (dW/dr)/r over the distance in place); then each particle's sum and the scatter to its
     neighbours in pair order. The pairs beyond 2h, about a quarter of the list, would add exact zeros and
-    are not evaluated. Any block gives the same numbers bit for bit."""
+    are not evaluated. Any chunk gives the same numbers bit for bit."""
     order, pstart, pj, n, rho_sum = lst.order, lst.pstart, lst.pj, lst.n, lst.rho_sum
     cstart, cj, cf = lst.cstart, lst.cj, lst.cf
     pos, mass = parts.pos, parts.mass
     kid, inv_h, norm, w0, m_all = c.kid, c.inv_h, c.norm, c.w0, c.mass
     three_d, uniform_mass = sw.three_d, sw.uniform_mass
     support2 = 4.0 / (inv_h * inv_h)
-    longest = uintp(block)
+    longest = uintp(chunk)
     for k in range(n):
         rho_sum[k] = (m_all if len(uniform_mass) else mass[k]) * w0
         longest = max(longest, uintp(pstart[k + 1]) - uintp(pstart[k]))
@@ -152,7 +152,7 @@ def density_blocks(lst, parts, c, sw, block):
     while a0 < n:
         c0 = cnt
         a1 = a0
-        while a1 < n and (a1 == a0 or uintp(pstart[a1 + 1]) - uintp(pstart[a0]) <= uintp(block)):
+        while a1 < n and (a1 == a0 or uintp(pstart[a1 + 1]) - uintp(pstart[a0]) <= uintp(chunk)):
             cstart[a1] = cnt
             i = uintp(order[a1])
             xi = pos[i, 0]
@@ -198,10 +198,10 @@ def _density_threaded(order, pstart, pi, pj, n, npairs, pos, mass, kid, inv_h, n
                      wp, need, offset, entry):
     """:func:`density_threaded` on plain arguments (numba's parallel loops read the arrays of named
     tuples wrongly: a sum stayed at its first term)."""
-    nblocks = (npairs + BLOCK - 1) // BLOCK
-    for b in prange(nblocks):
-        lo = uintp(b * BLOCK)
-        hi = min(lo + uintp(BLOCK), uintp(npairs))
+    nchunks = (npairs + CHUNK - 1) // CHUNK
+    for b in prange(nchunks):
+        lo = uintp(b * CHUNK)
+        hi = min(lo + uintp(CHUNK), uintp(npairs))
         fpb = fp[lo:hi]
         _squared_distances(pos, pi, pj, lo, hi, fpb, three_d)
         _kernel_values(kid, inv_h, norm, fpb, wp[lo:hi], fpb, hi - lo, 1.0, ())

@@ -66,7 +66,7 @@ class Constants(NamedTuple):
 
 
 class PairList(NamedTuple):
-    """The neighbour list of one build (:mod:`parsph.sph.neighbours`) and the arrays indexed like it."""
+    """The neighbour list of one build (:mod:`parsph.sph.cells`) and the arrays indexed like it."""
     order: np.ndarray    # order[a]: the particle at sorted place a
     pstart: np.ndarray   # the pairs of place a (with later places): pstart[a] .. pstart[a+1]-1
     pi: np.ndarray       # the pairs' members
@@ -85,7 +85,7 @@ class PairList(NamedTuple):
 class Gather(NamedTuple):
     """The threaded passes' scratch: each particle's pairs in pair order and the values per pair."""
     offset: np.ndarray  # the entries of particle k: offset[k] .. offset[k+1]-1
-    entry: np.ndarray   # 2 p + side (side 1: the particle is pj[p]); neighbours.build_entries
+    entry: np.ndarray   # 2 p + side (side 1: the particle is pj[p]); cells.build_entries
     wp: np.ndarray      # W per pair
     Pp: np.ndarray      # pressure factor P per pair
     Vp: np.ndarray      # viscous factor V per pair

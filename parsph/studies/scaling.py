@@ -30,7 +30,7 @@ from mpi4py import MPI
 from parsph.parallel import native_halo, native_mpi, slabs
 from parsph.physics import kernels
 from parsph.simulation.solver import Simulation
-from parsph.sph import neighbours
+from parsph.sph import cells
 from .cases import bench
 from .machine import cpu_model
 
@@ -43,12 +43,12 @@ def machine():
 def slabs_refused(p, nx, sets):
     """Why ``p`` ranks do not fit the benchmarks' case at N_x = ``nx`` with ``sets`` (None: they fit)."""
     cfg = bench(nx, sets)
-    grid = neighbours.grid_for(cfg, kernels.get_kernel(cfg.kernel, cfg.dim))
+    grid = cells.grid_for(cfg, kernels.get_kernel(cfg.kernel, cfg.dim))
     cut = grid.cutoff
     if slabs.fits(cfg.Ly, p, grid.axes[1].side, grid.axes[1].n, grid.m):
         return None
     return (f"{p} ranks do not fit N_x = {nx}, L_y = {cfg.Ly:g} m (slabs of at least about 1.5 x the cutoff "
-            f"{cut:g} m): at most {slabs.max_ranks(cfg.Ly, cut, neighbours.CELLS_PER_CUTOFF)}")
+            f"{cut:g} m): at most {slabs.max_ranks(cfg.Ly, cut, cells.CELLS_PER_CUTOFF)}")
 
 
 # ---- one rank, under mpirun ------------------------------------------------------------------------

@@ -36,7 +36,7 @@ import numpy as np
 from parsph.parallel import slabs
 from parsph.physics.kernels import get_kernel
 from parsph.setup import config
-from parsph.sph.neighbours import grid_for
+from parsph.sph.cells import grid_for
 from . import cases
 from .fits import relative_line
 

@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.parallel.slabs import min_length
-from parsph.sph.neighbours import CELLS_PER_CUTOFF
+from parsph.sph.cells import CELLS_PER_CUTOFF
 from parsph.simulation.solver import Simulation
 
 PAPER = Path(__file__).resolve().parents[2] / "run" / "couette_paper.toml"

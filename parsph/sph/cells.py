@@ -21,14 +21,14 @@ do not depend on the rank or thread count, bit for bit.
 Validity. The list built at step n holds every pair within 2h at step m > n
 if no two particles whose cells are at most 2M apart along every direction
 moved by more than the skin relative to each other since n. The test
-(:func:`block_spread`): the bounding box of the displacements of the
-particles in each block of (2M+1)^d cells, an empty cell counting as
+(:func:`patch_spread`): the bounding box of the displacements of the
+particles in each patch of (2M+1)^d cells, an empty cell counting as
 displacement 0, has a diagonal below the skin. Proof: a pair whose cells
-are at most 2M apart in every direction lies in the block centred between
+are at most 2M apart in every direction lies in the patch centred between
 them, so its distance changed by less than the skin, and one that was
 farther than r_c apart came no closer than 2h. A pair whose cells are more
 than 2M apart along some direction was at least 2 r_c apart; a chain of
-blocks joins them, each adding less than one skin of relative displacement
+patches joins them, each adding less than one skin of relative displacement
 per 2M cells crossed, which is never enough to close the gap to 2h.
 Relative, not absolute, displacement is what counts: a plate that carries
 its neighbours along at V_w does not force a rebuild.
@@ -41,7 +41,7 @@ from numba import njit, uintp
 
 from .particles import FLUID
 
-CELLS_PER_CUTOFF = 2  # M: cells of side r_c / 2; blocks of 5^d cells span 2.5 r_c
+CELLS_PER_CUTOFF = 2  # M: cells of side r_c / 2; patches of 5^d cells span 2.5 r_c
 
 
 class Axis:
@@ -88,7 +88,7 @@ class CellBox(NamedTuple):
     """A rank's local cell box, in global integer cell coordinates (``SlabRing.local_box``)."""
     lo: np.ndarray         # the first cell per direction
     size: np.ndarray       # cells per direction
-    centre_lo: np.ndarray  # the block centres of the validity test: local cells centre_lo .. centre_hi
+    centre_lo: np.ndarray  # the patch centres of the validity test: local cells centre_lo .. centre_hi
     centre_hi: np.ndarray
 
 
@@ -329,8 +329,8 @@ _max3 = _window3(True)
 
 
 @njit(cache=True)
-def block_spread(disp, cells, local, box, work):
-    """The largest diagonal of the displacement box of any block of (2M+1)^d cells centred in ``local``'s
+def patch_spread(disp, cells, local, box, work):
+    """The largest diagonal of the displacement box of any patch of (2M+1)^d cells centred in ``local``'s
     centre range, for the particles sorted into ``cells``.
 
     ``box`` and ``work`` ((6, ncells)) are scratch space: rows 0..dim-1
