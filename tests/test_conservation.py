@@ -89,7 +89,7 @@ energy = false
         ps = self.ps
         n0 = ps.n_own
         before = ps.pos[:n0].copy()
-        self.sim.advance(DT)
+        self.sim.integrate(DT)
         # positions wrap only at rebuilds: count the particles that crossed a periodic edge
         cell = np.floor(before / [LX, LY]) != np.floor(ps.pos[:n0] / [LX, LY])
         self.wraps += int(np.count_nonzero(cell))

@@ -44,7 +44,7 @@ def run(path, over):
     sim = Simulation(cfg, MPI.COMM_SELF)
     for _ in range(3):
         sim.compute_rates()
-        sim.advance(sim.dt)
+        sim.integrate(sim.dt)
     sim.compute_rates()
     return cfg, sim
 

@@ -250,7 +250,7 @@ def test_conservation_through_migration():
         sim.compute_rates()
         rebuilt = sim.rebuilds > rebuilds
         ids, mass, y = snapshot()
-        sim.advance(sim.dt)
+        sim.integrate(sim.dt)
         n_global = comm.allreduce(ps.n_own)
         plain = comm.allreduce(float(np.sum(mass)))       # the plain sum over ranks
         all_ids, all_mass = everyone(ids, mass)

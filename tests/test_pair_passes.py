@@ -48,7 +48,7 @@ def stepped(name, over, mass_spread=0.0, steps=20):
     assert sim.rates.switches.uniform_mass == pass_data.switch(not mass_spread)
     for _ in range(steps):
         sim.compute_rates()
-        sim.advance(sim.dt)
+        sim.integrate(sim.dt)
     sim.compute_rates()
     R = sim.rates
     return sim, (R.list, pass_data.particle_arrays(sim.ps), R.consts, R.switches)

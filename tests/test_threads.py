@@ -30,7 +30,7 @@ def state_after(name, over, threads, steps=25):
         sim = Simulation(cfg, MPI.COMM_SELF)
         for _ in range(steps):
             sim.compute_rates()
-            sim.advance(sim.dt)
+            sim.integrate(sim.dt)
         sim.compute_rates()
     finally:
         numba.set_num_threads(1)

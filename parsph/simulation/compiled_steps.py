@@ -76,14 +76,14 @@ class CompiledSteps:
             self._block_fn = fn
         return self._block_fn
 
-    def _advance(self, pending, most=None, stop_requested=None):
+    def _to_next_event(self, pending, most=None, stop_requested=None):
         """At least one step, up to the next output or the end (``most`` steps at most, else about
         BLOCK_SECONDS of them), in compiled blocks that run the checks too where the messages can be sent
         from compiled code, else one step."""
         cfg = self.cfg
         target = min(pending[0], cfg.t_end) if pending else cfg.t_end
         if not self.native:
-            self.step_once(stop_requested, target)
+            self.python_step(stop_requested, target)
             return
         stop_step = self.step + (most or self._block_steps)
         if not cfg.dt_auto:
@@ -91,9 +91,9 @@ class CompiledSteps:
             if pending:
                 stop_step = min(stop_step, max(round(pending[0] / cfg.dt), self.step + 1))
         self._stop_local = stop_requested() if stop_requested is not None else 0
-        self._run_blocks(stop_step, target)
+        self._run_compiled(stop_step, target)
 
-    def _run_blocks(self, stop_step, target):
+    def _run_compiled(self, stop_step, target):
         """Compiled blocks to ``stop_step`` (or the landing on ``target``): the codes of :mod:`.block`."""
         ctl, ictl = self._ctl, self._ictl
         t0 = time.perf_counter()

@@ -9,7 +9,7 @@ One step (state at t_n -> t_{n+1}), paper integrator:
              rebuild) -> [rebuild: wrap, migrate, ghosts, images, list]
   rates:     density Eq. (3) -> ghosts' rho -> momentum Eq. (5)
   [output, checks]
-  advance:   Eqs. (6)-(7) for the owned particles
+  integrate: Eqs. (6)-(7) for the owned particles
 
 The neighbour list (:mod:`parsph.sph.cells`) is rebuilt only when the
 test says it may miss a pair (and at the first step: a snapshot keeps the
@@ -247,7 +247,7 @@ class Simulation(CompiledSteps):
         self.rates(self.ps, self.ring, self.timers, self.clock)
         self._fresh = True
 
-    def advance(self, dt, stop_requested=None):
+    def integrate(self, dt, stop_requested=None):
         """One step of the chosen integrator; the particles stay on this rank until the next rebuild.
 
         ``stop_requested()`` (a signal number, 0 for none) is polled once;
@@ -376,15 +376,15 @@ class Simulation(CompiledSteps):
         on any rank the run writes a final output with particles and raises
         Interrupted on every rank with the same number.
         """
-        return self._loop(output, progress, stop_requested, observe)
+        return self._run_loop(output, progress, stop_requested, observe)
 
     def take_steps(self, n, stop_requested=None):
         """``n`` steps (fewer where t_end comes first) exactly as :meth:`run` takes them: compiled blocks,
         the auto rule landing on the output times, the run-time checks; no outputs. For benchmarks and
         studies that step a run themselves."""
-        return self._loop(None, None, stop_requested, None, last_step=self.step + n)
+        return self._run_loop(None, None, stop_requested, None, last_step=self.step + n)
 
-    def _loop(self, output, progress, stop_requested, observe, last_step=None):
+    def _run_loop(self, output, progress, stop_requested, observe, last_step=None):
         cfg = self.cfg
         clock = self.clock
         pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
@@ -424,7 +424,7 @@ class Simulation(CompiledSteps):
             most = 1 if observe is not None else None
             if last_step is not None:
                 most = min(most or last_step, last_step - self.step)
-            self._advance(pending, most, stop_requested)
+            self._to_next_event(pending, most, stop_requested)
             now = time.perf_counter()
             if self.steady is None:
                 self.steady = (self.step, self.t, now)
@@ -437,7 +437,7 @@ class Simulation(CompiledSteps):
         return self
 
     # ---- whole steps -------------------------------------------------------------------
-    def step_once(self, stop_requested=None, target=None):
+    def python_step(self, stop_requested=None, target=None):
         """One step on the Python path (mpi4py messages), from a state whose rates are computed:
         the auto rule's dt (landing on ``target``, default t_end), Eqs. (6)-(7), the next rates."""
         cfg = self.cfg
@@ -446,9 +446,9 @@ class Simulation(CompiledSteps):
             target = cfg.t_end if target is None else target
             dt, land = limits.landing(dt, target - self.t)
             self.dt = dt
-            self.advance(dt, stop_requested)
+            self.integrate(dt, stop_requested)
             if land:
                 self.t = target
         else:
-            self.advance(self.dt, stop_requested)
+            self.integrate(self.dt, stop_requested)
         self.compute_rates()

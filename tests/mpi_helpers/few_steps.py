@@ -27,7 +27,7 @@ def main(argv):
     sim = Simulation(cfg, comm)
     for _ in range(steps):
         sim.compute_rates()
-        sim.advance(sim.dt)
+        sim.integrate(sim.dt)
     sim.check()
     # one write per line: mpirun forwards the ranks' output in chunks, and print() with
     # PYTHONUNBUFFERED writes the text and its newline separately (lines could interleave)

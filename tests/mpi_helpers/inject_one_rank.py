@@ -2,7 +2,7 @@
 
     mpirun -n 2 python tests/mpi_helpers/inject_one_rank.py raise|nan RANK STEP -- parsph-run-args...
 
-``raise``: on rank RANK, the solver's step driver (``Simulation._advance``)
+``raise``: on rank RANK, the solver's step driver (``Simulation._to_next_event``)
 raises RuntimeError("injected failure") when it is called at step STEP; the other ranks run on normally and
 must not hang.
 
@@ -41,7 +41,7 @@ def main(argv):
     if MPI.COMM_WORLD.rank == rank:
         # the solver's step driver (compiled blocks, or the Python path step by step), held to end a
         # block at STEP so that the fault lands at that step exactly
-        original = parsph.simulation.solver.Simulation._advance
+        original = parsph.simulation.solver.Simulation._to_next_event
 
         def advance(self, pending, most=None, stop_requested=None):
             if mode == "raise" and self.step == step:
@@ -52,7 +52,7 @@ def main(argv):
             if mode == "nan" and self.step == step:
                 put_nan(self, rank, step)
 
-        parsph.simulation.solver.Simulation._advance = advance
+        parsph.simulation.solver.Simulation._to_next_event = advance
     return cli.main(["run", *rest])
 
 
