@@ -15,7 +15,7 @@ import sys
 
 from parsph.errors import ConfigError, UsageError, agree
 from .exits import EXIT_ERROR
-from .run import reporting, world_command
+from .world import reporting, world_command
 
 
 def cmd_converge(args):
