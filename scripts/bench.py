@@ -25,7 +25,7 @@ import numba
 from mpi4py import MPI
 
 from parsph.simulation.solver import Simulation
-from parsph.studies import cases
+from parsph.studies import builders
 from parsph.studies.benchmark import bench
 from parsph.studies.runs import append_json
 
@@ -43,7 +43,7 @@ def main():
     a = ap.parse_args()
     numba.set_num_threads(a.threads)
     comm = MPI.COMM_WORLD
-    Simulation(cases.bench(10), comm).take_steps(2)  # load the compiled loops before any RSS is taken
+    Simulation(builders.bench(10), comm).take_steps(2)  # load the compiled loops before any RSS is taken
     for nx in a.nx:
         r = bench(comm, nx, a.steps or None, a.set, a.budget)
         r["tag"] = a.tag

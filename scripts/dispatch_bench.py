@@ -24,7 +24,7 @@ from mpi4py import MPI
 
 from parsph.simulation.solver import Simulation
 from parsph.sph import cells, equations, pass_data, dispatch
-from parsph.studies.cases import bench
+from parsph.studies.builders import bench
 
 
 def empty_calls(sim):

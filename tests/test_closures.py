@@ -43,10 +43,10 @@ def test_viscosity():
 
 @pytest.mark.parametrize("source", ["run file", "package"])
 def test_paper_derived(paper_cfg, source):
-    """run/couette_paper.toml and the package's Table 1 (studies.cases.paper_run_file) are the same case."""
+    """run/couette_paper.toml and the package's Table 1 (studies.builders.paper_run_file) are the same case."""
     from parsph.setup import config
-    from parsph.studies import cases
-    cfg = paper_cfg() if source == "run file" else config.build(cases.paper_run_file())
+    from parsph.studies import builders
+    cfg = paper_cfg() if source == "run file" else config.build(builders.paper_run_file())
     assert cfg.nu == pytest.approx(1.75e-4, rel=1e-12)
     assert cfg.reynolds == pytest.approx(57.142857, rel=1e-4)
     assert cfg.dx == pytest.approx(2e-4, rel=1e-12)

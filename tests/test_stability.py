@@ -28,7 +28,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.studies import cases
+from parsph.studies import builders
 from parsph.studies.stability import Recorder
 from parsph.errors import ConfigError, GuardError
 from parsph.output import output_files, read_profile
@@ -68,9 +68,9 @@ def k_for(Re, theta0):
 
 
 def make_cfg(theta0=0.35, k=1.0, nx=50, dt="auto", steps=STEPS, times=(), extra=()):
-    """The paper case with h = 1.25 dx, L_y = 8 h (cases.couette); t_end = steps * dt (auto: the run's limit
+    """The paper case with h = 1.25 dx, L_y = 8 h (builders.couette); t_end = steps * dt (auto: the run's limit
     at t = 0)."""
-    return cases.couette(nx, ly_in_h=8, dt=dt, steps=steps, overrides=[
+    return builders.couette(nx, ly_in_h=8, dt=dt, steps=steps, overrides=[
         f"material.theta0={theta0!r}", f"material.k={k!r}", f"output.times={list(times)!r}", "checks.every=1", *extra])
 
 

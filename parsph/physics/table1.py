@@ -1,6 +1,6 @@
 """Table 1 of the paper (PHYSICS.md): the transient plane Couette flow, in SI units.
 
-The numbers the studies and the case builders (:mod:`parsph.studies.cases`)
+The numbers the studies and the case builders (:mod:`parsph.studies.builders`)
 read, so that none of them copies one; ``run/couette_paper.toml`` is the same
 case as a run file (a test holds the two together). The closure's constants
 G = 10^(G_A theta + G_B) are :data:`parsph.physics.closures.G_A` and ``G_B``.

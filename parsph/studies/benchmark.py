@@ -1,6 +1,6 @@
 """Benchmarks of the step and of its pair passes (scripts/bench.py, bench_pairs.py; docs/performance.md).
 
-:func:`bench` steps the benchmarks' Couette case (:func:`parsph.studies.cases.bench`)
+:func:`bench` steps the benchmarks' Couette case (:func:`parsph.studies.builders.bench`)
 through ``Simulation.take_steps``, the loop ``parsph run`` runs, and records its
 rate, the phases of the slowest and the fastest rank, the memory and the
 machine. Beside them it times scalar loops over the same pair list that do the
@@ -23,7 +23,7 @@ from numba import njit
 
 from parsph.simulation.solver import PHASES, Simulation
 from parsph.sph import equations, pass_data, reference_passes
-from .cases import bench as bench_case
+from .builders import bench as bench_case
 from .machine import current_rss, peak_rss, threading_layer
 
 

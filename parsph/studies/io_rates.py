@@ -23,7 +23,7 @@ from parsph import output
 from parsph.setup import config
 from parsph.setup.scenes import lattice
 from parsph.sph.particles import MOVING_WALL
-from .cases import paper_run_file
+from .builders import paper_run_file
 from .machine import REPO, cpu_model
 
 

@@ -31,7 +31,7 @@ from parsph.parallel import native_halo, native_mpi, slabs
 from parsph.physics import kernels
 from parsph.simulation.solver import Simulation
 from parsph.sph import cells
-from .cases import bench
+from .builders import bench
 from .machine import cpu_model
 
 

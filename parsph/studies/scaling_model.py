@@ -37,7 +37,7 @@ from parsph.parallel import slabs
 from parsph.physics.kernels import get_kernel
 from parsph.setup import config
 from parsph.sph.cells import grid_for
-from . import cases
+from . import builders
 from .fits import relative_line
 
 
@@ -49,7 +49,7 @@ def load(path):
 
 def _paper_grid():
     """(cell rows per cutoff, the cutoff 2h + skin in lattice steps, wall layers) of the paper case."""
-    cfg = config.build(cases.paper_run_file())
+    cfg = config.build(builders.paper_run_file())
     grid = grid_for(cfg, get_kernel(cfg.kernel, cfg.dim))
     return grid.m, grid.cutoff / cfg.dx, cfg.layers
 

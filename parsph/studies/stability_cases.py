@@ -5,7 +5,7 @@ Every run is the real solver (``Simulation.run``, the loop ``parsph run`` drives
 on ``MPI.COMM_SELF`` in one process: the flow is 1-D in x, so a short periodic
 box ``L_y = 8 h`` (10 rows) carries it and the slab decomposition plays no
 part. A Couette column is (theta_0, Re) at one N_x, Re = V_w L rho_s /
-(k theta_0) (:func:`parsph.studies.cases.couette_k`); a run takes ``STEPS`` =
+(k theta_0) (:func:`parsph.studies.builders.couette_k`); a run takes ``STEPS`` =
 2,000 steps of a fixed
 
     dt = multiple * predicted limit,  predicted limit = the smallest of config.build's limits at theta_0
@@ -50,7 +50,7 @@ import numpy as np
 
 from parsph.physics import limits
 from parsph.physics.closures import modulus
-from . import cases
+from . import builders
 from .machine import commit
 from .runs import append_row, load_rows
 from .stability import Recorder, Results, run_and_classify
@@ -105,16 +105,16 @@ def prediction(theta0, Re, nx, integrator="paper"):
 
 @lru_cache(maxsize=4096)
 def _prediction(theta0, Re, nx, integrator):
-    cfg = cases.couette(nx, ly_in_h=LY_IN_H, theta0=theta0, re=Re, overrides=[f'numerics.integrator="{integrator}"'])
+    cfg = builders.couette(nx, ly_in_h=LY_IN_H, theta0=theta0, re=Re, overrides=[f'numerics.integrator="{integrator}"'])
     lim = dict(cfg.limits)
     c2 = limits.sound_speed(theta0, cfg.rho_s, cfg.G_a, cfg.G_b, "paper") ** 2
     return Prediction(cfg.k, cfg.h, lim, min(lim, key=lim.get), 2.0 * cfg.k * theta0 / cfg.rho_s / c2)
 
 
 def case_config(theta0, Re, nx, multiple, steps=STEPS, theta_frac=THETA_FRAC, extra=(), integrator="paper"):
-    """The column's Couette case (cases.couette: L_y = 8 h) at dt = multiple x the predicted limit for
+    """The column's Couette case (builders.couette: L_y = 8 h) at dt = multiple x the predicted limit for
     ``steps`` steps, the guard at every step with the map's theta threshold."""
-    return cases.couette(nx, ly_in_h=LY_IN_H, dt=multiple * prediction(theta0, Re, nx, integrator).dt, steps=steps,
+    return builders.couette(nx, ly_in_h=LY_IN_H, dt=multiple * prediction(theta0, Re, nx, integrator).dt, steps=steps,
                          theta0=theta0, re=Re, overrides=[
                              "numerics.allow_unstable_dt=true", "checks.every=1", f"checks.theta_change={theta_frac!r}",
                              "checks.energy=true", f'numerics.integrator="{integrator}"', *extra])
@@ -156,7 +156,7 @@ def grid(nxs, quick=False):
 # ---- the settling column -------------------------------------------------------------------------------
 def settling_limits(theta0, nx, theta=None):
     """The predicted limits [s] of the column at theta (default theta_0)."""
-    return cases.settling_limits(nx, theta0, ly_in_h=LY_IN_H, theta=theta)
+    return builders.settling_limits(nx, theta0, ly_in_h=LY_IN_H, theta=theta)
 
 
 def settling_config(theta0, nx, multiple, steps=None, extra=()):
@@ -164,7 +164,7 @@ def settling_config(theta0, nx, multiple, steps=None, extra=()):
     at least SETTLING["min_steps"] steps (a time-step instability grows per step)."""
     lim = min(settling_limits(theta0, nx).values())
     steps = max(steps or SETTLING["steps"], SETTLING["min_steps"] * multiple)
-    return cases.settling(nx, theta0, ly_in_h=LY_IN_H, dt=multiple * lim, t_end=steps * lim, overrides=[
+    return builders.settling(nx, theta0, ly_in_h=LY_IN_H, dt=multiple * lim, t_end=steps * lim, overrides=[
         "checks.every=1", "checks.theta_change=1.0", "checks.energy=true", *extra])
 
 

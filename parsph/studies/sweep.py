@@ -1,7 +1,7 @@
 """The accuracy/speed sweep of the Couette case (docs/accuracy.md): its grids of numerical choices, one run
 of a choice set, and the resumable execution of a grid, each run in its own process.
 
-A run is the paper case (Table 1 physics: :func:`parsph.studies.cases.couette`,
+A run is the paper case (Table 1 physics: :func:`parsph.studies.builders.couette`,
 square box) with the run's choices of N_x, h/dx, kernel, integrator, dt
 ("auto" with a safety factor, or fixed), beta_max, wall layers and end time,
 on one rank (COMM_SELF) with an in-memory output callback (no HDF5 is
@@ -44,7 +44,7 @@ from mpi4py import MPI
 from parsph.errors import GuardError
 from parsph.simulation.solver import Simulation
 from parsph.sph.particles import FLUID
-from .cases import couette
+from .builders import couette
 from .machine import REPO, commit
 from .runs import JsonLines, Runs
 
@@ -75,7 +75,7 @@ def run_id(c):
 
 
 def build_config(run):
-    """The paper case (Table 1 physics: cases.couette, square box) with the run's numerics."""
+    """The paper case (Table 1 physics: builders.couette, square box) with the run's numerics."""
     c = choices(run)
     times = [t for t in TIMES if t <= c["t_end"] * (1 + 1e-12)]
     return couette(int(c["Nx"]), h_over_dx=float(c["h_over_dx"]),
