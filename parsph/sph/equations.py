@@ -76,6 +76,7 @@ from numba import njit, prange, uintp
 from parsph.physics.closures import half_modulus, modulus_unchecked
 from parsph.physics.drag import STOKES, rate
 from parsph.physics.kernels import kernel_w_f
+from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
 from .particles import FLUID
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
@@ -299,20 +300,6 @@ def particle_factors_serial(lst, parts, c, sw, start, stop):
 
 
 # ---- Eq. (5) ------------------------------------------------------------------------------------
-@njit(cache=True, inline="always")
-def _beta(xk, xo, L, beta_max):
-    """The no-slip factor beta = min(beta_max, 1 + d_o/d_k) of fluid particle k seen by wall particle o."""
-    if xo < 0.0:
-        d_o = -xo
-        d_k = xk
-    else:
-        d_o = xo - L
-        d_k = L - xk
-    if d_k > 0.0:
-        return min(beta_max, 1.0 + d_o / d_k)
-    return beta_max
-
-
 @njit(cache=True, error_model="numpy")
 def momentum_serial(lst, parts, c, sw):
     """Eq. (5) into ``acc`` of the owned particles (walls: zero), each pair once, in pair order.
@@ -362,13 +349,10 @@ def momentum_serial(lst, parts, c, sw):
             th_j = fields[j, THETA]
             P = 0.0
             if len(pressure):
-                if len(consistent):
-                    P = -(pr_i + fields[j, PRESS]) * f
-                else:
-                    P = c_press * pr_i * fields[j, PRESS] * (ith_i + fields[j, INV_THETA]) * f
+                P = pressure_term(pr_i, fields[j, PRESS], ith_i, fields[j, INV_THETA], f, c_press, consistent)
             V = 0.0
             if len(viscosity):
-                V = (th_i + th_j) * irho_i * fields[j, INV_RHO] * f
+                V = viscous_term(th_i, th_j, irho_i, fields[j, INV_RHO], f)
             rx = xi - pos[j, 0]
             ry = yi - pos[j, 1]
             vx = vxi - fields[j, VX]
@@ -381,9 +365,9 @@ def momentum_serial(lst, parts, c, sw):
             if need_i:
                 s = 0.0
                 if len(viscosity):
-                    mu = 0.5 * k_visc * (th_i + th_j) if len(symmetric_mu) else k_visc * th_i
+                    mu = viscosity_coefficient(th_i, th_i, th_j, k_visc, symmetric_mu)
                     if len(walls) and kind[j] != FLUID:
-                        mu *= _beta(xi, pos[j, 0], L, beta_max)
+                        mu *= wall_factor(xi, pos[j, 0], L, beta_max)
                     s = mu * V
                 m = m_all if len(uniform_mass) else mass[j]
                 ax += m * (P * rx + s * vx)
@@ -393,9 +377,9 @@ def momentum_serial(lst, parts, c, sw):
             if need[j]:
                 s = 0.0
                 if len(viscosity):
-                    mu = 0.5 * k_visc * (th_i + th_j) if len(symmetric_mu) else k_visc * th_j
+                    mu = viscosity_coefficient(th_j, th_i, th_j, k_visc, symmetric_mu)
                     if len(walls) and not fluid_i:
-                        mu *= _beta(pos[j, 0], xi, L, beta_max)
+                        mu *= wall_factor(pos[j, 0], xi, L, beta_max)
                     s = mu * V
                 acc[j, 0] -= mi * (P * rx + s * vx)
                 acc[j, 1] -= mi * (P * ry + s * vy)
@@ -488,13 +472,11 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         f = fp[p]
         P = 0.0
         if len(pressure):
-            if len(consistent):
-                P = -(fields[i, PRESS] + fields[j, PRESS]) * f
-            else:
-                P = c_press * fields[i, PRESS] * fields[j, PRESS] * (fields[i, INV_THETA] + fields[j, INV_THETA]) * f
+            P = pressure_term(fields[i, PRESS], fields[j, PRESS], fields[i, INV_THETA], fields[j, INV_THETA], f,
+                              c_press, consistent)
         V = 0.0
         if len(viscosity):
-            V = (fields[i, THETA] + fields[j, THETA]) * fields[i, INV_RHO] * fields[j, INV_RHO] * f
+            V = viscous_term(fields[i, THETA], fields[j, THETA], fields[i, INV_RHO], fields[j, INV_RHO], f)
         Pp[p] = P
         Vp[p] = V
     for k in prange(n_own):
@@ -522,9 +504,10 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
                     vz = fields[i, VZ] - fields[j, VZ]
                 s = 0.0
                 if len(viscosity):
-                    mu = 0.5 * k_visc * (fields[i, THETA] + fields[j, THETA]) if len(symmetric_mu) else k_visc * fields[k, THETA]
+                    mu = viscosity_coefficient(fields[k, THETA], fields[i, THETA], fields[j, THETA], k_visc,
+                                               symmetric_mu)
                     if len(walls) and kind[o] != FLUID:
-                        mu *= _beta(pos[k, 0], pos[o, 0], L, beta_max)
+                        mu *= wall_factor(pos[k, 0], pos[o, 0], L, beta_max)
                     s = mu * V
                 m = mass[o]
                 if entry[e] & 1:

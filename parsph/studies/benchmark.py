@@ -23,8 +23,12 @@ from numba import njit
 
 from parsph.simulation.solver import PHASES, Simulation
 from parsph.sph import equations, pass_data, reference_passes
+from parsph.sph.pair_terms import pressure_term, viscosity_coefficient, viscous_term
 from .builders import bench as bench_case
 from .machine import current_rss, peak_rss, threading_layer
+
+
+PAPER_FORM, OWN_MU = (), ()  # the switches of Eq. (5)'s paper form and mu_i = k theta_i (pass_data.switch)
 
 
 @njit(cache=True)
@@ -51,14 +55,14 @@ def reference_forces(order, pstart, pj, n, x, y, vx, vy, m, th, ith, pr, irho, f
         for p in range(pstart[a], pstart[a + 1]):
             j = pj[p]
             f = fp[p]
-            P = c1 * pri * pr[j] * (ithi + ith[j]) * f
-            V = (thi + th[j]) * irhoi * irho[j] * f
+            P = pressure_term(pri, pr[j], ithi, ith[j], f, c1, PAPER_FORM)
+            V = viscous_term(thi, th[j], irhoi, irho[j], f)
             rx = xi - x[j]
             ry = yi - y[j]
             ux = vxi - vx[j]
             uy = vyi - vy[j]
-            si = c2 * thi * V
-            sj = c2 * th[j] * V
+            si = viscosity_coefficient(thi, thi, th[j], c2, OWN_MU) * V
+            sj = viscosity_coefficient(th[j], thi, th[j], c2, OWN_MU) * V
             a0 += m[j] * (P * rx + si * ux)
             a1 += m[j] * (P * ry + si * uy)
             ax[j] -= mi * (P * rx + sj * ux)
@@ -89,14 +93,14 @@ def reference_forces_rows(order, pstart, pj, n, rows, m, fp, c1, c2, ax, ay):
         for p in range(pstart[a], pstart[a + 1]):
             j = pj[p]
             f = fp[p]
-            P = c1 * pri * rows[j, 6] * (ithi + rows[j, 5]) * f
-            V = (thi + rows[j, 4]) * irhoi * rows[j, 7] * f
+            P = pressure_term(pri, rows[j, 6], ithi, rows[j, 5], f, c1, PAPER_FORM)
+            V = viscous_term(thi, rows[j, 4], irhoi, rows[j, 7], f)
             rx = xi - rows[j, 0]
             ry = yi - rows[j, 1]
             ux = vxi - rows[j, 2]
             uy = vyi - rows[j, 3]
-            si = c2 * thi * V
-            sj = c2 * rows[j, 4] * V
+            si = viscosity_coefficient(thi, thi, rows[j, 4], c2, OWN_MU) * V
+            sj = viscosity_coefficient(rows[j, 4], thi, rows[j, 4], c2, OWN_MU) * V
             a0 += m[j] * (P * rx + si * ux)
             a1 += m[j] * (P * ry + si * uy)
             ax[j] -= mi * (P * rx + sj * ux)
