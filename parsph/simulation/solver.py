@@ -84,6 +84,7 @@ class Simulation(CompiledSteps):
         if self.gas is not None:
             self.g *= 1.0 - self.gas.rho / cfg.rho_s
             ps.add_field("drag")
+            ps.add_field("drag_rate", vector=False)
         self._implicit = pass_data.switch(self.gas is not None and self.gas.implicit)
         self.period_x = 0.0 if walls else cfg.L
         self.step = 0 if state is None else int(state["attrs"]["step"])

@@ -74,7 +74,7 @@ import numpy as np
 from numba import njit, prange, uintp
 
 from parsph.physics.closures import half_modulus, modulus_unchecked
-from parsph.physics.drag import STOKES, rate
+from parsph.physics.drag import GIDASPOW, STOKES, WEN_YU, rate
 from parsph.physics.kernels import kernel_w_f
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
 from .particles import FLUID
@@ -390,14 +390,19 @@ def momentum_serial(lst, parts, c, sw):
             acc[i, 1] = ay
             if len(three_d):
                 acc[i, 2] = az
-    _finish_acc(acc, kind, g, three_d, n_own, drag_on, parts.vel, parts.theta, rho_s, c.gas, parts.drag)
+    _finish_acc(acc, kind, g, three_d, n_own, drag_on, parts.vel, parts.theta, rho_s, c.gas, parts.drag,
+                parts.drag_rate)
 
 
 @njit(cache=True, error_model="numpy")
-def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, drag):
-    """Owned fluid particles: + g, + the gas's drag (:func:`add_drag`, with ``drag_on``); owned walls: zero
-    (one call: an inlined call per particle would count references to its arrays every time). numpy's error
-    model: with Python's, the drag's divisions and powers test for zero and took 4x as long."""
+def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, drag, drag_rate):
+    """Owned fluid particles: + g, + the gas's drag (:func:`drag_rates` first, then :func:`drag_plain` per
+    particle, with ``drag_on``); owned walls: zero (one call: an inlined call per particle would count
+    references to its arrays every time). numpy's error model: with Python's, the drag's divisions and powers
+    test for zero and took 4x as long."""
+    if len(drag_on):
+        drag_rates(n_own, vel, theta, rho_s, gas.model, gas.rho, gas.mu, gas.d, gas.column, gas.axis, gas.sign,
+                   gas.U, gas.u, drag_rate, three_d)
     for k in range(n_own):
         if kind[k] == FLUID:
             acc[k, 0] += g[0]
@@ -405,7 +410,8 @@ def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, d
             if len(three_d):
                 acc[k, 2] += g[2]
             if len(drag_on):
-                add_drag(k, vel, theta, rho_s, gas, acc, drag)
+                drag_plain(k, vel, 1.0 - theta[k], gas.column, gas.axis, gas.sign, gas.U, gas.u, acc, drag,
+                           drag_rate[k], three_d)
         else:
             acc[k, 0] = 0.0
             acc[k, 1] = 0.0
@@ -415,55 +421,115 @@ def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, d
 
 # ---- the gas's drag (PHYSICS.md, "The solid phase in a gas") -------------------------------------------
 @njit(cache=True, inline="always")
-def add_drag(k, vel, theta, rho_s, gas, acc, drag):
-    """:func:`drag_plain` with the gas as its named group (pass_data.GasConstants)."""
-    drag_plain(k, vel, theta, rho_s, gas.model, gas.rho, gas.mu, gas.d, gas.column, gas.axis, gas.sign, gas.U,
-               gas.u, acc, drag)
+def stream_slip2(k, vf, u0, u1, u2, three_d):
+    """|u_g - v_k|^2 in a stream u_g = (u0, u1, u2): the sum of (u_d - v_k,d)^2 over the components d.
+    ``vf``: the velocities flat (:func:`flat`), read at the constant stride dim; u_g as numbers (loads from its
+    array in the loop, or strides read from the 2-D array's shape, keep the loop off vector registers)."""
+    dim = 3 if len(three_d) else 2
+    s0 = u0 - vf[dim * k]
+    s1 = u1 - vf[dim * k + 1]
+    slip2 = s0 * s0 + s1 * s1
+    if len(three_d):
+        s2 = u2 - vf[dim * k + 2]
+        slip2 += s2 * s2
+    return slip2
 
 
 @njit(cache=True, inline="always")
-def drag_plain(k, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, sign, U, u, acc, drag):
+def column_slip2(k, vf, theta, axis, sign, U, three_d):
+    """|u_g,k - v_k|^2 in a column (PHYSICS.md): u_g.e = (U - theta v.e) / eps along e = sign * unit(axis), so
+    the slip there is (sign U - v_k,axis) / eps, and -v_k,d across. Branch-free: each component a select;
+    ``vf`` as in :func:`stream_slip2`."""
+    dim = 3 if len(three_d) else 2
+    se = (sign * U - vf[dim * k + axis]) / (1.0 - theta[k])
+    s0 = se if axis == 0 else vf[dim * k]
+    s1 = se if axis == 1 else vf[dim * k + 1]
+    slip2 = s0 * s0 + s1 * s1
+    if len(three_d):
+        s2 = se if axis == 2 else vf[dim * k + 2]
+        slip2 += s2 * s2
+    return slip2
+
+
+@njit(cache=True, inline="always")
+def flat(a):
+    """A C-contiguous (n, dim) array as a flat view (no copy)."""
+    return a.reshape(a.shape[0] * a.shape[1])
+
+
+@njit(cache=True, error_model="numpy")
+def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, sign, U, u, K, three_d):
+    """K[k] = :func:`parsph.physics.drag.rate` at (theta_k, |u_g,k - v_k|^2) for k < n_own, walls included
+    (unused there): one loop per closure and kind of gas flow, each branch-free (the model a constant) so that
+    it runs on vector registers, fastmath's log, exp and atan included. Plain arguments, as drag_plain's;
+    :func:`_momentum_threaded` has the same loops in parallel."""
+    u0, u1, u2 = u[0], u[1], u[2]
+    vf = flat(vel)
+    if model == STOKES:
+        for k in range(n_own):
+            K[k] = rate(STOKES, theta[k], 0.0, rho_s, rho_g, mu_g, d_grain)
+    elif column:
+        if model == WEN_YU:
+            for k in range(n_own):
+                K[k] = rate(WEN_YU, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s, rho_g,
+                            mu_g, d_grain)
+        else:
+            for k in range(n_own):
+                K[k] = rate(GIDASPOW, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s, rho_g,
+                            mu_g, d_grain)
+    elif model == WEN_YU:
+        for k in range(n_own):
+            K[k] = rate(WEN_YU, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g, d_grain)
+    else:
+        for k in range(n_own):
+            K[k] = rate(GIDASPOW, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g, d_grain)
+
+
+@njit(cache=True, inline="always")
+def drag_plain(k, vel, eps, column, axis, sign, U, u, acc, drag, Kk, three_d):
     """The drag on fluid particle k, beside Eq. (5)'s sums and gravity with buoyancy (Constants.g):
 
         dv_k/dt += beta_k (u_g,k - v_k) / (rho_s theta_k eps_k),   eps = 1 - theta,
 
-    theta_k from Eq. (3), beta_k the closure's (:func:`parsph.physics.drag.rate` = beta / (rho_s theta eps))
-    at |u_g,k - v_k|.
-    Written per component as C (w - v_k) with K = beta / (rho_s theta eps): a stream has C = K and
+    theta_k from Eq. (3), beta_k the closure's at |u_g,k - v_k|, Kk = beta_k / (rho_s theta_k eps_k) from
+    :func:`drag_rates`, eps = eps_k. Written per component as C (w - v_k): a stream has C = K and
     w = u_g; a column (gas fed at U along e, opposite to gravity) has u_g.e = (U - theta v.e) / eps, so
     along e C = K / eps and w = U e, across it C = K and w = 0. ``drag[k]`` keeps C per component,
     what the implicit update divides by (:mod:`parsph.sph.integrators`) and the auto rule reads.
-    Plain arguments: the threaded pass calls it inside a parallel loop, which misreads named tuples' arrays."""
-    th = theta[k]
-    eps = 1.0 - th
-    dim = vel.shape[1]
-    slip2 = 0.0
-    if model != STOKES:  # Stokes's beta does not depend on the slip
-        for d in range(dim):
-            if column:
-                s = (sign * U - vel[k, d]) / eps if d == axis else vel[k, d]
-            else:
-                s = u[d] - vel[k, d]
-            slip2 += s * s
-    K = rate(model, th, slip2, rho_s, rho_g, mu_g, d_grain)
-    for d in range(dim):
-        C = K
-        w = u[d]
-        if column:
-            w = 0.0
-            if d == axis:
-                C = K / eps
-                w = sign * U
-        acc[k, d] += C * (w - vel[k, d])
-        drag[k, d] = C
+    Plain arguments: the threaded pass calls it inside a parallel loop, which misreads named tuples' arrays.
+    The components written out (``three_d`` a switch; u has 3): a loop over vel.shape[1] took longer; every
+    array read unconditionally, else numba counts its references per particle."""
+    c0 = Kk
+    c1 = Kk
+    c2 = Kk
+    w0 = u[0]
+    w1 = u[1]
+    w2 = u[2]
+    if column:
+        ce = Kk / eps
+        we = sign * U
+        c0 = ce if axis == 0 else Kk
+        c1 = ce if axis == 1 else Kk
+        c2 = ce if axis == 2 else Kk
+        w0 = we if axis == 0 else 0.0
+        w1 = we if axis == 1 else 0.0
+        w2 = we if axis == 2 else 0.0
+    acc[k, 0] += c0 * (w0 - vel[k, 0])
+    acc[k, 1] += c1 * (w1 - vel[k, 1])
+    drag[k, 0] = c0
+    drag[k, 1] = c1
+    if len(three_d):
+        acc[k, 2] += c2 * (w2 - vel[k, 2])
+        drag[k, 2] = c2
 
 
 @njit(cache=True, parallel=True, error_model="numpy")
 def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
                       k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
                       Pp, Vp, offset, entry, drag_on, vel, theta, model, rho_g, mu_g, d_grain, column, axis, sign,
-                      U, u, drag):
-    """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`)."""
+                      U, u, drag, drag_rate):
+    """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`); the drag's K as
+    :func:`drag_rates` finds it, in parallel loops."""
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for p in prange(npairs):
@@ -479,6 +545,29 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
             V = viscous_term(fields[i, THETA], fields[j, THETA], fields[i, INV_RHO], fields[j, INV_RHO], f)
         Pp[p] = P
         Vp[p] = V
+    if len(drag_on):  # drag_rates's loops
+        u0, u1, u2 = u[0], u[1], u[2]
+        vf = flat(vel)
+        if model == STOKES:
+            for k in prange(n_own):
+                drag_rate[k] = rate(STOKES, theta[k], 0.0, rho_s, rho_g, mu_g, d_grain)
+        elif column:
+            if model == WEN_YU:
+                for k in prange(n_own):
+                    drag_rate[k] = rate(WEN_YU, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s,
+                                        rho_g, mu_g, d_grain)
+            else:
+                for k in prange(n_own):
+                    drag_rate[k] = rate(GIDASPOW, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d),
+                                        rho_s, rho_g, mu_g, d_grain)
+        elif model == WEN_YU:
+            for k in prange(n_own):
+                drag_rate[k] = rate(WEN_YU, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g,
+                                    d_grain)
+        else:
+            for k in prange(n_own):
+                drag_rate[k] = rate(GIDASPOW, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g,
+                                    d_grain)
     for k in prange(n_own):
         ax = 0.0
         ay = 0.0
@@ -534,7 +623,7 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         if len(three_d):
             acc[k, 2] = az
         if len(drag_on) and kind[k] == FLUID:
-            drag_plain(k, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, sign, U, u, acc, drag)
+            drag_plain(k, vel, 1.0 - theta[k], column, axis, sign, U, u, acc, drag, drag_rate[k], three_d)
 
 
 @njit(cache=True)
@@ -546,4 +635,4 @@ def momentum_threaded(lst, parts, c, sw, gather):
                        c.g, sw.pressure, sw.viscosity, sw.symmetric_mu, sw.walls, sw.consistent, sw.three_d,
                        parts.acc, gather.Pp, gather.Vp, gather.offset, gather.entry, sw.drag, parts.vel,
                        parts.theta, c.gas.model, c.gas.rho, c.gas.mu, c.gas.d, c.gas.column, c.gas.axis, c.gas.sign,
-                       c.gas.U, c.gas.u, parts.drag)
+                       c.gas.U, c.gas.u, parts.drag, parts.drag_rate)

@@ -19,6 +19,7 @@ Fields:
     disp                 displacement since the last rebuild (the list's validity test)
     jump                 length of the last step's displacement (run-time check 5)
     drag                 with a gas: the drag coefficient per component (pass_data.ParticleArrays.drag)
+    drag_rate            with a gas: the closure's K per particle, the drag loops' scratch (ParticleArrays.drag_rate)
 """
 import math
 
@@ -27,7 +28,7 @@ from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 # recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
-DERIVED = ("acc", "theta", "disp", "drag")
+DERIVED = ("acc", "theta", "disp", "drag", "drag_rate")
 
 
 class Particles:

@@ -103,12 +103,16 @@ class ParticleArrays(NamedTuple):
     n_own: int
     drag: np.ndarray   # with drag: per owned particle and component the coefficient C of its drag
                        # acceleration C (w - v) (1/tau; the implicit update divides by 1 + dt C); else (0, dim)
+    drag_rate: np.ndarray  # with drag: per owned particle the closure's K = beta / (rho_s theta eps) (the drag
+                           # loops' contiguous scratch, equations.drag_rates); else (0,)
 
 
 def particle_arrays(ps):
-    """The passes' view of a Particles set (its arrays, not copies); ``drag`` is the set's field of that name
-    where the run has a gas (:meth:`parsph.sph.particles.Particles.add_field`), else an empty array."""
+    """The passes' view of a Particles set (its arrays, not copies); ``drag`` and ``drag_rate`` are the set's
+    fields of those names where the run has a gas (:meth:`parsph.sph.particles.Particles.add_field`), else
+    empty arrays."""
     drag = getattr(ps, "drag", None)
+    drag_rate = getattr(ps, "drag_rate", None)
     if drag is None:
-        drag = np.zeros((0, ps.dim))
-    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own, drag)
+        drag, drag_rate = np.zeros((0, ps.dim)), np.zeros(0)
+    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own, drag, drag_rate)
