@@ -18,21 +18,32 @@ import argparse
 import json
 from pathlib import Path
 
+import numpy as np
+
 from parsph.studies import drag
 
 RUN = Path(__file__).resolve().parents[1] / "run"
 
 
 def cost(args):
-    variants = [("none", "implicit"), ("stokes", "implicit"), ("stokes", "explicit"), ("wen_yu", "implicit"),
-                ("gidaspow", "implicit")]
+    """Each variant timed between two runs without drag, its ratio against their mean (the machine's drift
+    between neighbouring runs cancels); the median ratio of each variant at the end."""
+    variants = [("stokes", "implicit"), ("stokes", "explicit"), ("wen_yu", "implicit"), ("gidaspow", "implicit")]
+    ratios = {v: [] for v in variants}
     for r in range(args.rounds):
-        base = None
+        before = drag.step_cost(RUN, "none", steps=args.steps)
         for closure, update in variants:
-            t = drag.step_cost(RUN, closure, update)
-            base = t if closure == "none" else base
+            t = drag.step_cost(RUN, closure, update, steps=args.steps)
+            after = drag.step_cost(RUN, "none", steps=args.steps)
+            ratio = t / (0.5 * (before + after))
+            ratios[(closure, update)].append(ratio)
             print(json.dumps({"round": r, "drag": closure, "update": update, "ms_per_step": round(1e3 * t, 4),
-                              "ratio": round(t / base, 3)}), flush=True)
+                              "none_ms_per_step": round(500 * (before + after), 4), "ratio": round(ratio, 3)}),
+                  flush=True)
+            before = after
+    for (closure, update), rs in ratios.items():
+        print(json.dumps({"drag": closure, "update": update, "median_ratio": round(float(np.median(rs)), 3),
+                          "range": [round(min(rs), 3), round(max(rs), 3)]}), flush=True)
 
 
 def stability(args):
@@ -74,6 +85,7 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("what", choices=("cost", "stability", "trade", "auto", "settling"))
     p.add_argument("--rounds", type=int, default=3)
+    p.add_argument("--steps", type=int, default=2000, help="cost: timed steps a run")
     p.add_argument("--png", default=None)
     args = p.parse_args()
     {"cost": cost, "stability": stability, "trade": trade, "auto": auto, "settling": settling}[args.what](args)
