@@ -386,56 +386,63 @@ class Simulation(CompiledSteps):
         return self._run_loop(None, None, stop_requested, None, last_step=self.step + n)
 
     def _run_loop(self, output, progress, stop_requested, observe, last_step=None):
-        cfg = self.cfg
-        clock = self.clock
-        pending = [t for t in cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
-        if self.step > 0:  # restart: the restart state itself was output already
-            pending = [t for t in pending if not self._output_due(t)]
-        check_every = self.limits.every
-        interval = cfg.get("output.progress_interval")
-        t_start = last = time.perf_counter()
-        step0, tsim0 = self.step, self.t
-        # for progress (parsph.cli.progress): the loop's start, and (step, t, clock) once the run's first
-        # step, which loads or compiles the loops and builds the first list, is done: steps after it are steady
-        self.loop_started, self.steady = t_start, None
-        stop = 0
-        snapshots = cfg.get("output.snapshots")
+        """The events between the steps, in their order: the outputs due, the observer, the checks, the end,
+        a stop (with a restart point), then steps to the next event and a progress line."""
+        pending = self._pending_outputs()
+        ticker = _Ticker(self, progress)
         if not self._fresh:
             self.compute_rates()
         while True:
             stop = self.stop
-            while pending and self._output_due(pending[0]):
-                if output is not None:
-                    t0 = clock()
-                    output(self.frame(snapshots), snapshot=snapshots)
-                    self.timers["output"] += clock() - t0
-                pending.pop(0)
-            done = self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
+            self._write_due(pending, output)
+            done = self._at_end()
             if observe is not None:
                 observe(self)
-            if done or (self.step % check_every == 0 and self._checked != self.step):
+            if done or (self.step % self.limits.every == 0 and self._checked != self.step):
                 self.check()
             if done or (last_step is not None and self.step >= last_step):
                 break
             if stop:
-                if output is not None:
-                    output(self.frame(True), snapshot=True)
-                raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; "
-                                  f"the last output is a restart point", stop)
-            most = 1 if observe is not None else None
-            if last_step is not None:
-                most = min(most or last_step, last_step - self.step)
-            self._to_next_event(pending, most, stop_requested)
-            now = time.perf_counter()
-            if self.steady is None:
-                self.steady = (self.step, self.t, now)
-            if progress is not None and interval > 0 and now - last >= interval:
-                last = now
-                rate = self.n_total * (self.step - step0) / (now - t_start)
-                eta = (cfg.t_end - self.t) * (now - t_start) / max(self.t - tsim0, 1e-300)
-                progress(self, rate, eta)
-        self.wall_time = time.perf_counter() - t_start
+                self._stop_at_restart_point(output, stop)
+            self._to_next_event(pending, self._most_steps(observe, last_step), stop_requested)
+            ticker.tick()
+        self.wall_time = time.perf_counter() - self.loop_started
         return self
+
+    def _pending_outputs(self):
+        """The output times still to write (a restart's own state was written already)."""
+        pending = [t for t in self.cfg.output_times if t >= self.t * (1 + 1e-12) or (self.step == 0 and t == 0)]
+        if self.step > 0:
+            pending = [t for t in pending if not self._output_due(t)]
+        return pending
+
+    def _write_due(self, pending, output):
+        """Every output whose time the state has reached, taken off ``pending``."""
+        snapshots = self.cfg.get("output.snapshots")
+        while pending and self._output_due(pending[0]):
+            if output is not None:
+                t0 = self.clock()
+                output(self.frame(snapshots), snapshot=snapshots)
+                self.timers["output"] += self.clock() - t0
+            pending.pop(0)
+
+    def _at_end(self):
+        cfg = self.cfg
+        return self.t >= cfg.t_end * (1 - 1e-12) if cfg.dt_auto else self.step >= cfg.nsteps
+
+    def _stop_at_restart_point(self, output, stop):
+        """A stop agreed by every rank: a final output with particles, then Interrupted on every rank."""
+        if output is not None:
+            output(self.frame(True), snapshot=True)
+        raise Interrupted(f"stopped at step {self.step}, t = {self.t:.6g} s; the last output is a restart point",
+                          stop)
+
+    def _most_steps(self, observe, last_step):
+        """The most steps before Python sees the state again: one for an observer, up to ``last_step``."""
+        most = 1 if observe is not None else None
+        if last_step is not None:
+            most = min(most or last_step, last_step - self.step)
+        return most
 
     # ---- whole steps -------------------------------------------------------------------
     def python_step(self, stop_requested=None, target=None):
@@ -453,3 +460,26 @@ class Simulation(CompiledSteps):
         else:
             self.integrate(self.dt, stop_requested)
         self.compute_rates()
+
+
+class _Ticker:
+    """The loop's clock for progress (parsph.cli.progress): ``sim.loop_started``, ``sim.steady`` (step, t,
+    clock) once the run's first step, which loads or compiles the loops and builds the first list, is done
+    (steps after it are steady), and ``progress(sim, rate, eta)`` every ``output.progress_interval`` s."""
+
+    def __init__(self, sim, progress):
+        self.sim, self.progress = sim, progress
+        self.interval = sim.cfg.get("output.progress_interval")
+        self.step0, self.t0 = sim.step, sim.t
+        sim.loop_started = self.last = time.perf_counter()
+        sim.steady = None
+
+    def tick(self):
+        sim, now = self.sim, time.perf_counter()
+        if sim.steady is None:
+            sim.steady = (sim.step, sim.t, now)
+        if self.progress is not None and self.interval > 0 and now - self.last >= self.interval:
+            self.last = now
+            rate = sim.n_total * (sim.step - self.step0) / (now - sim.loop_started)
+            eta = (sim.cfg.t_end - sim.t) * (now - sim.loop_started) / max(sim.t - self.t0, 1e-300)
+            self.progress(sim, rate, eta)
