@@ -43,12 +43,19 @@ from parsph.physics.limits import landing, state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
 
 EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = range(9)
-# ctl (float64): the block's clock and its inputs from Python
-T, DT, T_TARGET, STOP_IN, FORCE_IN, STOP_OUT, LAND, EVAL_FIRST = range(8)
-N_CTL = 8
-# ictl (int64)
-STEP, STOP_STEP, CHECKED = range(3)  # CHECKED: the last step the block checked
-N_ICTL = 3
+# the block's clock and its exchanges with Python: one record (``control``, an array of one element of
+# this type, read and written by field name on both sides)
+CONTROL = np.dtype([
+    ("t", np.float64), ("dt", np.float64), ("step", np.int64),  # the clock
+    ("t_target", np.float64),   # (auto dt) the time to land on: the next output or the end
+    ("stop_step", np.int64),    # the step to stop at
+    ("eval_first", np.bool_),   # evaluate the rates of the state first (a list was just built)
+    ("stop_in", np.float64),    # a signal this rank saw since the last sync (0: none)
+    ("force_in", np.bool_),     # rebuild the list at the next sync
+    ("stop_out", np.float64),   # a stop agreed at a sync of the block (the signal's number)
+    ("land", np.bool_),         # the last step landed on t_target
+    ("checked", np.int64),      # the last step whose checks the block ran
+])
 # timers (float64 seconds), in the solver's phase names
 TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
 SYNC, DENSITY, HALO, FORCES, INTEGRATE, CHECKS = range(6)
@@ -93,7 +100,7 @@ class Modes(NamedTuple):
 
 
 @njit(cache=True)
-def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers, req):
+def _sync(plan, parts, motion, cells, local, box, work, control, flags, flags_all, bad, skin, timers, req):
     """Displacements, the ghosts' refresh, the list's validity test, and the all-reduce of (bad, stop,
     rebuild) started: ``flags_all`` holds the agreed values once ``native_mpi.wait(req)`` returned.
     Returns MPI's error code."""
@@ -104,10 +111,11 @@ def _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, b
     err = native_halo.forward(plan, parts.pos, parts.vel, motion.disp, parts.n_own)
     spread = patch_spread(motion.disp, cells, local, box, work)
     flags[0] = bad
-    flags[1] = ctl[STOP_IN]
-    flags[2] = 1.0 if (ctl[FORCE_IN] != 0.0 or not spread < skin) else 0.0
-    ctl[STOP_IN] = 0.0
-    ctl[FORCE_IN] = 0.0
+    ctl = control[0]
+    flags[1] = ctl.stop_in
+    flags[2] = 1.0 if (ctl.force_in or not spread < skin) else 0.0
+    ctl.stop_in = 0.0
+    ctl.force_in = False
     err |= iallreduce(plan.h, OP_MAX, flags, flags_all, req)
     timers[SYNC] += wtime() - t0
     return err
@@ -167,7 +175,7 @@ def bucket_index(theta_max, theta_step, nbuckets):
 
 
 @njit(cache=True)
-def _auto_dt(plan, parts, rule, ctl, maxima, maxima_all, drag_limit):
+def _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit):
     """The auto rule's dt (safety x the smallest of the linear, advection, force and, with ``drag_limit``,
     drag limits: :func:`parsph.physics.limits.state_limits`), or -1 when the linear limit of the largest
     theta's bucket is not in ``rule.linear`` yet; -2 on an MPI error."""
@@ -199,16 +207,16 @@ def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
 
 
 @njit(cache=True)
-def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, ctl, flags, flags_all,
-                   bad, skin, timers, req, stat):
+def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control, flags,
+                   flags_all, bad, skin, timers, req, stat):
     """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
     the block's code (BAD, REBUILD; :func:`run_block` makes them BAD_MID, REBUILD_MID at the midpoint
-    integrator's middle evaluation). A stop agreed here is kept in ctl[STOP_OUT].
+    integrator's middle evaluation). A stop agreed here is kept in ``control``'s stop_out.
 
     Eq. (3) runs while the flags' all-reduce is in flight (it writes only the list's sums, which a
     rebuild or a bad state discards): the wait for the all-reduce comes after the pass, so a rank that
     reaches it first computes its densities instead of waiting, and its latency hides behind them."""
-    if _sync(plan, parts, motion, cells, local, box, work, ctl, flags, flags_all, bad, skin, timers, req):
+    if _sync(plan, parts, motion, cells, local, box, work, control, flags, flags_all, bad, skin, timers, req):
         return MPI_ERROR
     t0 = wtime()
     _density(lst, parts, c, sw, gather, threaded)
@@ -221,7 +229,7 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
     if flags_all[0] != 0.0:
         return BAD
     if flags_all[1] != 0.0:
-        ctl[STOP_OUT] = flags_all[1]
+        control[0].stop_out = flags_all[1]
     if flags_all[2] != 0.0:
         return REBUILD
     if _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
@@ -231,14 +239,15 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
 
 @njit(cache=True)
 def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, lim, midpoint, dt_auto,
-              threaded, implicit, drag_limit, ctl, ictl, timers, scratch, req, stat):
+              threaded, implicit, drag_limit, control, timers, scratch, req, stat):
     """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
 
-    ``ctl``, ``ictl`` hold the clock (t, dt, step) and the inputs (target
-    time, the linear limit's bucket, stop and forced-rebuild flags, the step
-    to stop at, whether to evaluate the rates of the state first); ``lim`` the checks' limits
-    (guards.Limits); ``midpoint`` .. ``drag_limit`` the fields of :class:`Modes`; ``timers`` gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the
-    all-reduces' buffers; ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
+    ``control`` (one record of :data:`CONTROL`) holds the clock (t, dt, step) and the exchanges with
+    Python (the target time, the step to stop at, stop and forced-rebuild flags in, a stop out, whether
+    to evaluate the rates of the state first, the last step checked); ``lim`` the checks' limits
+    (guards.Limits); ``midpoint`` .. ``drag_limit`` the fields of :class:`Modes`; ``timers`` gets the
+    phases' seconds; ``scratch`` (N_SCRATCH float64) the all-reduces' buffers, by the named slices above;
+    ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
     """
     flags, flags_all = scratch[FLAGS], scratch[FLAGS_ALL]
     maxima, maxima_all = scratch[MAXIMA], scratch[MAXIMA_ALL]
@@ -248,24 +257,25 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     sums_all = scratch[16 + N_REPORT + N_FASTEST:18 + N_REPORT + N_FASTEST]
     pos, vel, acc, kind, drag = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag
     n_own = parts.n_own
-    if ctl[EVAL_FIRST] != 0.0:  # the rates of the state as it is (a list was just built)
-        ctl[EVAL_FIRST] = 0.0
+    ctl = control[0]
+    if ctl.eval_first:  # the rates of the state as it is (a list was just built)
+        ctl.eval_first = False
         if evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
             return MPI_ERROR
-    while ictl[STEP] < ictl[STOP_STEP]:
+    while ctl.step < ctl.stop_step:
         # -- the step's dt
         land = False
         if len(dt_auto):
-            dt = _auto_dt(plan, parts, rule, ctl, maxima, maxima_all, drag_limit)
+            dt = _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit)
             if dt == -2.0:
                 return MPI_ERROR
             if dt < 0.0:
                 return NEED_LIMIT
-            dt, land = landing(dt, ctl[T_TARGET] - ctl[T])
+            dt, land = landing(dt, ctl.t_target - ctl.t)
         else:
             dt = rule.dt
-        ctl[DT] = dt
-        ctl[LAND] = 1.0 if land else 0.0
+        ctl.dt = dt
+        ctl.land = land
         # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
         t0 = wtime()
         if len(midpoint):
@@ -276,7 +286,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                 bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                           motion.jump, rule.h, drag, implicit)
             timers[INTEGRATE] += wtime() - t0
-            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, ctl,
+            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control,
                                   flags, flags_all, bad, rule.skin, timers, req, stat)
             if code >= 0:
                 return BAD_MID if code == BAD else REBUILD_MID if code == REBUILD else code
@@ -291,27 +301,27 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         else:
             bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
-        ictl[STEP] += 1
+        ctl.step += 1
         if len(dt_auto):
-            ctl[T] = ctl[T_TARGET] if land else ctl[T] + dt
+            ctl.t = ctl.t_target if land else ctl.t + dt
         else:
-            ctl[T] = ictl[STEP] * rule.dt
+            ctl.t = ctl.step * rule.dt
         timers[INTEGRATE] += wtime() - t0
         # -- sync, and the rates of the new state
-        code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, ctl,
+        code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control,
                               flags, flags_all, bad, rule.skin, timers, req, stat)
         if code >= 0:
             return code
-        if ictl[STEP] % lim.every == 0:  # the run-time checks, before a stop as Python's loop orders them
+        if ctl.step % lim.every == 0:  # the run-time checks, before a stop as Python's loop orders them
             t0 = wtime()
             failed = _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all)
-            ictl[CHECKED] = ictl[STEP]
+            ctl.checked = ctl.step
             timers[CHECKS] += wtime() - t0
             if failed < 0:
                 return MPI_ERROR
             if failed:
                 return CHECK
-        if ctl[STOP_OUT] != 0.0:  # agreed at this step's syncs: the step is done, its rates computed
+        if ctl.stop_out != 0.0:  # agreed at this step's syncs: the step is done, its rates computed
             return STOP
         if land:
             return EVENT

@@ -27,8 +27,7 @@ class CompiledSteps:
         if native is False:
             self.native, self.native_why = False, "native=False"
         self.ring.native = self.native  # the list build's messages take the same route
-        self._ctl = np.zeros(block.N_CTL)
-        self._ictl = np.zeros(block.N_ICTL, np.int64)
+        self._control = np.zeros(1, block.CONTROL)  # the block's clock and its exchanges with Python
         self._scratch = np.zeros(block.N_SCRATCH)
         self._timers_block = np.zeros(len(block.TIMER_PHASES))
         self._req, self._stat = native_mpi.requests(1)  # the sync's all-reduce in flight
@@ -59,7 +58,7 @@ class CompiledSteps:
             self._block_args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), motion, N.cells,
                                 N.local, N.box, N.work, R.consts, R.switches,
                                 R.gather_arrays() if threaded else self._no_gather, self._rule, self.limits, *modes,
-                                self._ctl, self._ictl, self._timers_block, self._scratch, self._req,
+                                self._control, self._timers_block, self._scratch, self._req,
                                 self._stat)
             self._block_fn = None
         if self._block_fn is None:
@@ -95,21 +94,21 @@ class CompiledSteps:
 
     def _run_compiled(self, stop_step, target):
         """Compiled blocks to ``stop_step`` (or the landing on ``target``): the codes of :mod:`.block`."""
-        ctl, ictl = self._ctl, self._ictl
+        ctl = self._control
         t0 = time.perf_counter()
         steps0 = self.step
         while True:
-            ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, target
-            ctl[block.STOP_IN], ctl[block.FORCE_IN], ctl[block.STOP_OUT] = self._stop_local, self.force_rebuild, 0.0
-            ictl[block.STEP], ictl[block.STOP_STEP] = self.step, stop_step
+            ctl["t"], ctl["dt"], ctl["step"] = self.t, self.dt, self.step
+            ctl["t_target"], ctl["stop_step"] = target, stop_step
+            ctl["stop_in"], ctl["force_in"], ctl["stop_out"] = self._stop_local, self.force_rebuild, 0.0
             code = self._block()(*self._block_args)
             self.block_calls += 1
-            self.t, self.dt, self.step = float(ctl[block.T]), float(ctl[block.DT]), int(ictl[block.STEP])
+            self.t, self.dt, self.step = float(ctl["t"][0]), float(ctl["dt"][0]), int(ctl["step"][0])
             self._bad = self._stop_local = 0
             self.force_rebuild = False
-            if ctl[block.STOP_OUT]:
-                self.stop = int(ctl[block.STOP_OUT])
-            self._checked = int(ictl[block.CHECKED])
+            if ctl["stop_out"][0]:
+                self.stop = int(ctl["stop_out"][0])
+            self._checked = int(ctl["checked"][0])
             self._add_block_timers()
             if code == block.CHECK:
                 self.check()  # raises GuardError on every rank (it passes only where a sum's last bit differs)
@@ -136,17 +135,17 @@ class CompiledSteps:
         self._evaluate_compiled()
         if code in (block.REBUILD_MID, block.BAD_MID):
             self._count_step(self.dt, self._correct(self.dt))
-            if self._ctl[block.LAND]:
-                self.t = float(self._ctl[block.T_TARGET])
+            if self._control["land"][0]:
+                self.t = float(self._control["t_target"][0])
             self.compute_rates()
 
     def _evaluate_compiled(self):
         """Eq. (3), the ghosts' rho, Eq. (5) of the current state, in the compiled block (no step)."""
-        ctl, ictl = self._ctl, self._ictl
-        ctl[block.EVAL_FIRST] = 1.0
-        ctl[block.T], ctl[block.DT], ctl[block.T_TARGET] = self.t, self.dt, self.t
-        ctl[block.STOP_IN] = ctl[block.FORCE_IN] = ctl[block.STOP_OUT] = 0.0
-        ictl[block.STEP] = ictl[block.STOP_STEP] = self.step
+        ctl = self._control
+        ctl["eval_first"] = True
+        ctl["t"], ctl["dt"], ctl["step"] = self.t, self.dt, self.step
+        ctl["t_target"], ctl["stop_step"] = self.t, self.step
+        ctl["stop_in"], ctl["force_in"], ctl["stop_out"] = 0.0, False, 0.0
         if self._block()(*self._block_args) == block.MPI_ERROR:
             raise RuntimeError("an MPI call of the compiled step failed")
         self._add_block_timers()
