@@ -119,7 +119,7 @@ def test_auto_rule_table_holds_the_linear_limits():
     """The blocks' table of linear limits per theta bucket holds, where filled, the limit of
     parsph.physics.limits at the bucket's theta (k THETA_STEP, at most 0.999), and the run filled one."""
     sim, _, _ = run_case("auto", MPI.COMM_SELF, native=None)
-    table = sim._rule.linear
+    table = sim.blocks.rule.linear
     known = np.flatnonzero(~np.isnan(table))
     assert len(known) >= 1
     for k in known:

@@ -1,0 +1,47 @@
+"""The integrator of the Python path (LAMMPS's Fix for the time integration): the paper's step,
+Eqs. (6)-(7), or the midpoint scheme's two halves (:mod:`parsph.sph.integrators`), with the gas's drag
+explicit or implicit in v. The compiled blocks take the same functions through :attr:`Integrator.modes`."""
+import numpy as np
+
+from parsph.sph import integrators, pass_data
+
+
+class Integrator:
+    """``numerics.integrator`` over the owned particles; adds the midpoint scheme's saved state to ``ps``."""
+
+    def __init__(self, cfg, ps):
+        self.h = float(cfg.h)
+        self.midpoint = cfg.integrator == "midpoint"
+        self.position_fields = ("pos",)  # the fields a build wraps into the box
+        if self.midpoint:
+            ps.add_field("pos0")
+            ps.add_field("vel0")
+            self.position_fields = ("pos", "pos0")
+        gas = cfg.gas
+        self.drag = gas is not None
+        self.implicit = pass_data.switch(gas is not None and gas.implicit)
+        self.explicit_drag = gas is not None and not gas.implicit  # the auto rule's drag limit applies
+        self.no_state = np.zeros((0, cfg.dim))
+
+    def drag_field(self, ps):
+        """The particles' drag coefficients as the integrators take them (an empty array without a gas; read
+        anew each step, as the field is reallocated when the particles grow)."""
+        return ps.drag if self.drag else self.no_state
+
+    def first(self, ps, dt):
+        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles."""
+        if not self.midpoint:
+            return integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h,
+                                          self.drag_field(ps), self.implicit)
+        return integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
+                                            ps.jump, self.h, self.drag_field(ps), self.implicit)
+
+    def second(self, ps, dt):
+        """The midpoint scheme's second half, from the rates at the midpoint."""
+        return integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
+                                            ps.jump, self.h, self.drag_field(ps), self.implicit)
+
+    def motion(self, ps):
+        """The particle state the compiled block integrates besides ParticleArrays (block.Motion's fields)."""
+        mid = self.midpoint
+        return ps.disp, ps.ref, ps.jump, ps.pos0 if mid else self.no_state, ps.vel0 if mid else self.no_state
