@@ -23,7 +23,10 @@ Messages are float64 rows (no pickling), packed and unpacked by the loops of
 :mod:`parsph.parallel.halo_rows`, :mod:`parsph.parallel.build_loops` and
 :mod:`parsph.sph.particles`; they are sent from compiled code
 (:mod:`parsph.parallel.native_mpi`) where it can call MPI, else with
-mpi4py's buffer methods. A build's rounds of unknown size send their row
+mpi4py's buffer methods. A ghost round is written once, in
+:mod:`parsph.parallel.native_halo` on this build's plan (:meth:`SlabRing.plan`):
+the compiled step and :meth:`SlabRing.forward` / :meth:`SlabRing.refresh`
+call it, and without native MPI the ring sends its packed rows through mpi4py. A build's rounds of unknown size send their row
 counts first, in a round of their own. The slab arithmetic (edges, rows,
 whether a rank count fits) is :mod:`parsph.parallel.slabs`.
 This module knows nothing of the equations, only of particle arrays and the
@@ -37,7 +40,8 @@ from mpi4py import MPI
 
 from . import native_mpi
 from .build_loops import ghost_places, sort_strays, wrap_fields
-from .halo_rows import copy_images, pack_forward, pack_ghosts, pack_scalar, unpack_forward, unpack_ghosts, unpack_scalar
+from .halo_rows import copy_images, pack_ghosts, unpack_ghosts
+from . import native_halo
 from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
 from parsph.sph.cells import CellBox
 from parsph.sph.particles import pack_rows
@@ -98,6 +102,7 @@ class SlabRing:
         self._places = np.zeros(0, np.int64)
         self._periodic = self._period = None
         self._local = None  # (dim, the local CellBox)
+        self._plan = None   # this build's ghost rounds (plan)
 
     # -- buffers --------------------------------------------------------------------
     def _buf(self, key, rows, width):
@@ -161,51 +166,61 @@ class SlabRing:
         e[0] += len(bufs)
         e[1] += sum(b.nbytes for b in bufs)
 
-    def _exchange(self, key, n_up, n_down, width):
-        """Known sizes: send the first n_up/n_down rows of the send buffers, receive n_below/n_above rows."""
-        nb, na = self.n_below, self.n_above
-        below, above = self._buf(("recv below", key), nb, width), self._buf(("recv above", key), na, width)
-        up, down = self._buf(("send up", key), n_up, width), self._buf(("send down", key), n_down, width)
-        method = {"fwd": "forward", "scalar": "refresh"}[key]
-        self._rounds(up, n_up, down, n_down, below, nb, above, na, (TAG_UP, TAG_DOWN), method)
-        self._count(method, up[:n_up], down[:n_down])
-        return below[:nb], above[:na]
-
     # -- every step -------------------------------------------------------------------
     def forward(self, ps):
         """Positions, velocities and displacements of the ghosts (one round) and of the images."""
-        d = ps.dim
-        width = 3 * d
-        nu, nd = len(self.send_up), len(self.send_down)
-        pack_forward(ps.pos, ps.vel, ps.disp, self.send_up, self._buf(("send up", "fwd"), nu, width),
-                      self.send_down, self._buf(("send down", "fwd"), nd, width))
-        below, above = self._exchange("fwd", nu, nd, width)
-        unpack_forward(below, above, ps.n_own, self.shift_below, self.shift_above, ps.pos, ps.vel, ps.disp,
-                        self.img_src, self.img_axis, self.img_shift, ps.n_own + self.n_below + self.n_above)
+        plan = self.plan(ps.dim)
+        if self._native() is not None:
+            self._compiled_round(native_halo.forward, "forward", plan, plan.f_up, plan.f_down, ps.pos, ps.vel,
+                                 ps.disp, ps.n_own)
+        else:
+            native_halo.pack_forward_rows(plan, ps.pos, ps.vel, ps.disp)
+            self._mpi4py_round(plan.f_up, plan.f_down, plan.f_below, plan.f_above, "forward")
+            native_halo.unpack_forward_rows(plan, ps.pos, ps.vel, ps.disp, ps.n_own)
 
     def refresh(self, ps, arr):
         """One scalar per particle (``arr``, e.g. ps.rho) of the ghosts and images from their originals."""
+        plan = self.plan(ps.dim)
+        if self._native() is not None:
+            self._compiled_round(native_halo.refresh, "refresh", plan, plan.s_up, plan.s_down, arr, ps.n_own)
+        else:
+            native_halo.pack_scalar_rows(plan, arr)
+            self._mpi4py_round(plan.s_up, plan.s_down, plan.s_below, plan.s_above, "refresh")
+            native_halo.unpack_scalar_rows(plan, arr, ps.n_own)
+
+    def _compiled_round(self, round_, method, plan, up, down, *args):
+        """A ghost round of :mod:`native_halo` called from Python, its messages sent from compiled code."""
+        t0 = self.clock()
+        err = round_(plan, *args)
+        self.stats["waiting"][method] += self.clock() - t0
+        if err:
+            raise RuntimeError(f"an MPI call of the slab ring's {method} failed (error {err})")
+        self._count(method, up[:len(self.send_up)], down[:len(self.send_down)])
+
+    def _mpi4py_round(self, up, down, below, above, method):
+        """A ghost round's packed rows through mpi4py (the sizes of this build)."""
         nu, nd = len(self.send_up), len(self.send_down)
-        pack_scalar(arr, self.send_up, self._buf(("send up", "scalar"), nu, 1)[:, 0],
-                     self.send_down, self._buf(("send down", "scalar"), nd, 1)[:, 0])
-        below, above = self._exchange("scalar", nu, nd, 1)
-        unpack_scalar(below[:, 0], above[:, 0], ps.n_own, arr, self.img_src,
-                       ps.n_own + self.n_below + self.n_above)
+        self._rounds(up, nu, down, nd, below, self.n_below, above, self.n_above, (TAG_UP, TAG_DOWN), method)
+        self._count(method, up[:nu], down[:nd])
 
     def plan(self, dim):
-        """The ghosts' messages of this build for the compiled sync (:mod:`parsph.parallel.native_halo`),
-        on the same buffers as :meth:`forward` and :meth:`refresh`; None where native MPI is unavailable."""
-        if self._native() is None:
-            return None
+        """This build's ghost rounds (:class:`native_halo.HaloPlan`, made once a build): the places sent, the
+        shifts, the images and the buffers every route packs into; MPI's handles where compiled code can call
+        it (zeros where it cannot, and the rounds go through mpi4py)."""
+        if self._plan is not None:
+            return self._plan
         nu, nd, nb, na = len(self.send_up), len(self.send_down), self.n_below, self.n_above
         w = 3 * dim
         f = [self._buf((side, "fwd"), k, w) for side, k in (("send up", nu), ("send down", nd),
                                                              ("recv below", nb), ("recv above", na))]
         s = [self._buf((side, "scalar"), k, 1) for side, k in (("send up", nu), ("send down", nd),
                                                                 ("recv below", nb), ("recv above", na))]
-        return HaloPlan(self._handles, self.left, self.right, self.send_up, self.send_down, nb, na,
-                        float(self.shift_below), float(self.shift_above), self.img_src, self.img_axis,
-                        self.img_shift, *f, *s, *self._reqs)
+        h = self._native()
+        handles, reqs = (h, self._reqs) if h is not None else (np.zeros(4, np.int64), native_mpi.requests(4))
+        self._plan = HaloPlan(handles, self.left, self.right, self.send_up, self.send_down, nb, na,
+                              float(self.shift_below), float(self.shift_above), self.img_src, self.img_axis,
+                              self.img_shift, *f, *s, *reqs)
+        return self._plan
 
     # -- at a rebuild -------------------------------------------------------------------
     def wrap(self, ps, position_fields):
@@ -274,6 +289,7 @@ class SlabRing:
         y = Ly). A ghost carries :data:`GHOST_FIELDS` (halo_rows.pack_ghosts).
         """
         t_in = self.clock()
+        self._plan = None
         P, r, m, ny = self.size, self.rank, self.m, self.ny
         first, last = self._rows_of
         n = ps.n_own
@@ -317,6 +333,7 @@ class SlabRing:
         n-M..n-1 to -M..-1; directions in turn, so corners are copied too.
         Records the sources for :meth:`forward` and :meth:`refresh`.
         """
+        self._plan = None
         src_all, axis_all, shift_all = [], [], []
         start = ps.n
         for axis in (0, 2):
