@@ -88,9 +88,11 @@ def column_ends(theta0, L, rho_s, g, a=8.76, b=-1.183, form="closure"):
     return floor, lid(floor)
 
 
-def run(scene="couette", dim=2, theta0=0.35, nx=50, t_end=0.01, extra=()):
+def run(scene="couette", dim=2, theta0=0.35, nx=50, t_end=0.01, extra=(), native=None):
+    """``native=False``: the Python path, for a combination of terms no other case runs (it compiles the
+    passes alone, not a block of its own; test_compiled_step shows both routes give the same bits)."""
     cfg = config.loads(BASE.format(scene=scene, dim=dim, theta0=theta0, nx=nx, t_end=t_end), list(extra))
-    sim = Simulation(cfg, MPI.COMM_SELF)
+    sim = Simulation(cfg, MPI.COMM_SELF, native=native)
     out = {}
     sim.run(output=lambda s, snapshot=None: out.update(s.profile))
     return cfg, sim, out
@@ -166,7 +168,7 @@ def test_periodic_shear_wave_decays_at_the_viscous_rate():
 def test_periodic_box_conserves_momentum_with_the_symmetric_viscosity():
     """No walls, pressure on, the pair-symmetric viscosity: total momentum stays at round-off."""
     cfg, sim, p = run("periodic_box", t_end=0.002, extra=["scene.amplitude=0.1", "terms.pressure=true",
-                                                           'numerics.viscosity_form="symmetric"'])
+                                                           'numerics.viscosity_form="symmetric"'], native=False)
     ps = sim.ps
     n = ps.n_own
     mom = (ps.mass[:n, None] * ps.vel[:n]).sum(axis=0)
@@ -185,13 +187,14 @@ def test_couette_3d_matches_eq8_like_2d():
 
 def test_terms_switched_off_change_the_answer_only_as_physics_says():
     _, _, on = run("couette", t_end=0.01)
-    _, _, off = run("couette", t_end=0.01, extra=["terms.pressure=false"])
+    _, _, off = run("couette", t_end=0.01, extra=["terms.pressure=false"], native=False)
     # uniform theta: the pressure term barely matters in Couette flow
     assert np.abs(on["vy"] - off["vy"]).max() < 0.01
-    _, sim, none = run("couette", t_end=0.002, extra=["terms.viscosity=false", "terms.pressure=false"])
+    _, sim, none = run("couette", t_end=0.002, extra=["terms.viscosity=false", "terms.pressure=false"],
+                       native=False)
     # no terms at all: nothing moves the fluid, exactly
     assert np.abs(none["vy"]).max() == 0.0 and np.abs(sim.ps.acc[:sim.ps.n_own]).max() == 0.0
-    _, _, novisc = run("couette", t_end=0.002, extra=["terms.viscosity=false"])
+    _, _, novisc = run("couette", t_end=0.002, extra=["terms.viscosity=false"], native=False)
     # no viscosity: only the pressure ripple of the sliding wall lattice reaches the fluid
     # (measured 1.7e-6 V_w next to the moving wall after 0.002 s)
     assert np.abs(novisc["vy"]).max() < 1e-5
