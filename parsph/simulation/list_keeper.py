@@ -59,7 +59,6 @@ class ListKeeper:
         ones, wrapped into the box, except on ``restore``, where ``ref`` came
         from a snapshot with the positions as the writing run held them.
         """
-        t0 = self.clock()
         ring = self.ring
         ps.n = ps.n_own
         if not restore:
@@ -79,4 +78,3 @@ class ListKeeper:
         self.neighbours.build(ps, coords, local)
         self.built = True
         self.rebuilds += 1
-        self.timers["rebuild"] += self.clock() - t0

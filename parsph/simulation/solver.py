@@ -127,10 +127,12 @@ class Simulation:
             self._build()
 
     def _build(self, restore=False):
-        """A new list (collective); the passes and the blocks take its arrays."""
+        """A new list (collective); the passes and the blocks take its arrays (the phase "rebuild")."""
+        t0 = self.clock()
         self.keeper.build(self.ps, restore)
         self.rates.attach(self.neighbours)
         self.blocks.forget()
+        self.timers["rebuild"] += self.clock() - t0
 
     def integrate(self, dt, stop_requested=None):
         """One step of the chosen integrator; the particles stay on this rank until the next rebuild.
