@@ -81,6 +81,7 @@ from .particles import FLUID
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
 CHUNK = 1024  # pairs per chunk of the density pass's vector loop (its scratch: 8 KiB)
+DRAG_CHUNK = 512  # particles per parallel chunk of the drag's rates (threaded momentum pass)
 
 
 # ---- Eq. (3) ------------------------------------------------------------------------------------
@@ -462,7 +463,8 @@ def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, ax
     """K[k] = :func:`parsph.physics.drag.rate` at (theta_k, |u_g,k - v_k|^2) for k < n_own, walls included
     (unused there): one loop per closure and kind of gas flow, each branch-free (the model a constant) so that
     it runs on vector registers, fastmath's log, exp and atan included. Plain arguments, as drag_plain's;
-    :func:`_momentum_threaded` has the same loops in parallel."""
+    :func:`_momentum_threaded` calls it on chunks of the arrays in parallel (a parallel loop of these bodies
+    took about 20 s to compile per version)."""
     u0, u1, u2 = u[0], u[1], u[2]
     vf = flat(vel)
     if model == STOKES:
@@ -528,8 +530,8 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
                       k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
                       Pp, Vp, offset, entry, drag_on, vel, theta, model, rho_g, mu_g, d_grain, column, axis, sign,
                       U, u, drag, drag_rate):
-    """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`); the drag's K as
-    :func:`drag_rates` finds it, in parallel loops."""
+    """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`); the drag's K by
+    :func:`drag_rates` on chunks of the arrays, in parallel."""
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for p in prange(npairs):
@@ -545,29 +547,12 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
             V = viscous_term(fields[i, THETA], fields[j, THETA], fields[i, INV_RHO], fields[j, INV_RHO], f)
         Pp[p] = P
         Vp[p] = V
-    if len(drag_on):  # drag_rates's loops
-        u0, u1, u2 = u[0], u[1], u[2]
-        vf = flat(vel)
-        if model == STOKES:
-            for k in prange(n_own):
-                drag_rate[k] = rate(STOKES, theta[k], 0.0, rho_s, rho_g, mu_g, d_grain)
-        elif column:
-            if model == WEN_YU:
-                for k in prange(n_own):
-                    drag_rate[k] = rate(WEN_YU, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s,
-                                        rho_g, mu_g, d_grain)
-            else:
-                for k in prange(n_own):
-                    drag_rate[k] = rate(GIDASPOW, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d),
-                                        rho_s, rho_g, mu_g, d_grain)
-        elif model == WEN_YU:
-            for k in prange(n_own):
-                drag_rate[k] = rate(WEN_YU, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g,
-                                    d_grain)
-        else:
-            for k in prange(n_own):
-                drag_rate[k] = rate(GIDASPOW, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g,
-                                    d_grain)
+    if len(drag_on):  # drag_rates on chunks of DRAG_CHUNK particles
+        for c in prange((n_own + DRAG_CHUNK - 1) // DRAG_CHUNK):
+            lo = c * DRAG_CHUNK
+            hi = min(lo + DRAG_CHUNK, n_own)
+            drag_rates(hi - lo, vel[lo:hi], theta[lo:hi], rho_s, model, rho_g, mu_g, d_grain, column, axis, sign,
+                       U, u, drag_rate[lo:hi], three_d)
     for k in prange(n_own):
         ax = 0.0
         ay = 0.0
