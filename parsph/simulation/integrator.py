@@ -1,6 +1,7 @@
 """The integrator of the Python path (LAMMPS's Fix for the time integration): the paper's step,
 Eqs. (6)-(7), or the midpoint scheme's two halves (:mod:`parsph.sph.integrators`), with the gas's drag
 explicit or implicit in v. The compiled blocks take the same functions through :attr:`Integrator.modes`."""
+import numba
 import numpy as np
 
 from parsph.sph import integrators, pass_data
@@ -29,17 +30,22 @@ class Integrator:
         return ps.drag if self.drag else self.no_state
 
     def first(self, ps, dt):
-        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles."""
+        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles.
+        On one thread the serial loops, as the compiled block takes them (no parallel region to compile)."""
+        serial = numba.get_num_threads() == 1
         if not self.midpoint:
-            return integrators.step_paper(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h,
-                                          self.drag_field(ps), self.implicit)
-        return integrators.midpoint_predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
-                                            ps.jump, self.h, self.drag_field(ps), self.implicit)
+            step = integrators.step_paper_serial if serial else integrators.step_paper
+            return step(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
+                        self.implicit)
+        predict = integrators.midpoint_predict_serial if serial else integrators.midpoint_predict
+        return predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
+                       self.drag_field(ps), self.implicit)
 
     def second(self, ps, dt):
         """The midpoint scheme's second half, from the rates at the midpoint."""
-        return integrators.midpoint_correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0,
-                                            ps.jump, self.h, self.drag_field(ps), self.implicit)
+        correct = integrators.midpoint_correct_serial if numba.get_num_threads() == 1 else integrators.midpoint_correct
+        return correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
+                       self.drag_field(ps), self.implicit)
 
     def motion(self, ps):
         """The particle state the compiled block integrates besides ParticleArrays (block.Motion's fields)."""
