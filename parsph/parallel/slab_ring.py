@@ -26,8 +26,9 @@ Messages are float64 rows (no pickling), packed and unpacked by the loops of
 mpi4py's buffer methods. A ghost round is written once, in
 :mod:`parsph.parallel.native_halo` on this build's plan (:meth:`SlabRing.plan`):
 the compiled step and :meth:`SlabRing.forward` / :meth:`SlabRing.refresh`
-call it, and without native MPI the ring sends its packed rows through mpi4py. A build's rounds of unknown size send their row
-counts first, in a round of their own. The slab arithmetic (edges, rows,
+call it, and without native MPI the ring sends its packed rows through
+mpi4py. A build's rounds of unknown size send their row counts first, in a
+round of their own. The slab arithmetic (edges, rows,
 whether a rank count fits) is :mod:`parsph.parallel.slabs`.
 This module knows nothing of the equations, only of particle arrays and the
 cell grid.
@@ -40,8 +41,8 @@ from mpi4py import MPI
 
 from . import native_mpi
 from .build_loops import ghost_places, sort_strays, wrap_fields
-from .halo_rows import copy_images, pack_ghosts, unpack_ghosts
 from . import native_halo
+from .halo_rows import copy_images, pack_ghosts, unpack_ghosts
 from .native_halo import TAG_DOWN, TAG_UP, HaloPlan
 from parsph.sph.cells import CellBox
 from parsph.sph.particles import pack_rows
