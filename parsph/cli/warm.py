@@ -22,8 +22,9 @@ long (:mod:`.progress`). What the cache holds already is loaded, not compiled
 again; no result depends on any of it. Prints one line: what it ran, and the
 seconds it compiled.
 
-With several cases the runs go to ``--jobs`` processes (default: one per core,
-at most 4) that take the cases one by one from a shared counter. They save
+With several cases the first (the paper case, whose loops share most with every
+other) runs alone, then the others go to ``--jobs`` processes (default: one per
+core, at most 4) that take them one by one from a shared counter. They save
 into the one cache, each save under parsph's lock
 (:func:`parsph.numba_cache.serialise_saves`: numba's saves are not safe for
 two processes writing versions of one function at once).
@@ -182,13 +183,17 @@ def main(argv=None):
     if jobs == 1:
         seconds, failed = run_cases(cases)
     else:
+        # the first case alone, then the others in ``jobs`` processes: it compiles what every case shares (the
+        # build, the halo, the outputs, the checks), which processes starting together would each compile
+        seconds, failed = run_cases(cases[:1])
         with tempfile.TemporaryDirectory(prefix="parsph-warm-queue-") as folder:
+            Path(folder, "next").write_text("1")
             cmd = [sys.executable, "-m", "parsph.cli.warm", a.run_dir, "--worker"] + (["--suite"] if a.suite else [])
             procs = [subprocess.Popen(cmd, env={**os.environ, QUEUE: folder}) for _ in range(jobs)]
             codes = [proc.wait() for proc in procs]
             results = [json.loads(f.read_text()) for f in Path(folder).glob("result.*")]
-        seconds = sum(r[0] for r in results)
-        failed = [f for r in results for f in r[1]]
+        seconds += sum(r[0] for r in results)
+        failed += [f for r in results for f in r[1]]
         failed += [f"a worker process: exit {c}" for c in codes if c != 0]
     what = "the cases of main.sh and the test suite" if a.suite else "the case of main.sh"
     runs = f"{len(cases)} tiny run{'s' if len(cases) > 1 else ''}"
