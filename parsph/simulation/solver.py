@@ -53,7 +53,6 @@ class Simulation:
         Python path's phases; e.g. time.process_time for CPU time); the compiled blocks' phases are
         wall seconds (MPI_Wtime)."""
         self.cfg, self.comm, self.clock = cfg, comm, clock
-        self.scene, self.gas = cfg.scene, cfg.gas
         self.timers = defaultdict(float)
         self.kernel = get_kernel(cfg.kernel, cfg.dim)
         self.skin = cfg.get("numerics.skin") * cfg.h
@@ -66,8 +65,7 @@ class Simulation:
         ps.add_field("ref")  # positions at the last build of the neighbour list
         self.integrator = Integrator(cfg, ps)
         self.rho_wall = start.hold_wall_density(cfg, self.kernel, ps)
-        self.g = start.body_force(cfg)  # every scene honours body_force.g; in a gas, with buoyancy
-        if self.gas is not None:
+        if cfg.gas is not None:
             ps.add_field("drag")
             ps.add_field("drag_rate", vector=False)
         self.timeline = Timeline(cfg, None if state is None else state["attrs"])
@@ -75,7 +73,7 @@ class Simulation:
                                  self.timers, clock)
         self.keeper.restore = restore
         self.neighbours = self.keeper.neighbours
-        self.rates = Rates(*start.pass_groups(cfg, self.kernel, self.g, start.the_one_mass(self.collect, ps)))
+        self.rates = Rates(*start.pass_groups(cfg, self.kernel, start.the_one_mass(self.collect, ps)))
         self.n_total = self.collect.total(ps.n_own)
         fluid = ps.kind[:ps.n_own] == FLUID
         self.limits = limits_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))

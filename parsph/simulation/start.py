@@ -60,9 +60,11 @@ def the_one_mass(collect, ps):
     return float(hi) if -neg_lo == hi else 0.0
 
 
-def pass_groups(cfg, kernel, g, mass):
-    """The run's numbers and terms as the passes take them (pass_data.Constants, pass_data.Switches)."""
+def pass_groups(cfg, kernel, mass):
+    """The run's numbers and terms as the passes take them (pass_data.Constants, pass_data.Switches); every
+    scene honours body_force.g (:func:`body_force`)."""
     sw = pass_data.switch
+    g = body_force(cfg)
     inv_h = 1.0 / cfg.h
     norm = kernel.norm(cfg.h, cfg.dim)
     w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
