@@ -145,9 +145,11 @@ class Study:
 
 
 def _warm_up(comm, run_file):
-    """A few steps of a level, untimed, so that loading numba's compiled code is not counted as cost."""
+    """A few steps of a level and an output's frame of them, untimed, so that loading (or compiling) numba's
+    code of the step and of the outputs is not counted as cost."""
     cfg = config.build(run_file)
-    Simulation(config.build(run_file.set("output", t_end=2.5 * cfg.dt, times=[])), comm).run()
+    sim = Simulation(config.build(run_file.set("output", t_end=2.5 * cfg.dt, times=[])), comm).run()
+    sim.frame(True)
 
 
 def _write(root, ldir, path, text):
