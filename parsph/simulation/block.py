@@ -89,14 +89,17 @@ class Rule(NamedTuple):
 
 
 class Modes(NamedTuple):
-    """Compile-time choices of the block (pass_data.switch values), passed to :func:`run_block` as arguments of
-    their own (``*modes``): numba prunes a branch on an empty tuple's ``len`` before typing only for an
-    argument, so that a serial block compiles no ``parallel=True`` pass and no midpoint integrator."""
+    """The block's choices, passed to :func:`run_block` as arguments of their own (``*modes``).
+
+    ``midpoint``, ``threaded``, ``implicit`` are compile-time (pass_data.switch values): numba prunes a branch
+    on an empty tuple's ``len`` before typing only for an argument, so that a serial block compiles no
+    ``parallel=True`` pass and no midpoint integrator. ``dt_auto`` and ``drag_limit`` are run-time flags: a
+    branch a step, and one version serves both values (each a switch compiled a block of its own, about 4 s)."""
     midpoint: tuple
-    dt_auto: tuple
+    dt_auto: bool
     threaded: tuple
     implicit: tuple   # the gas's drag implicit in v (numerics.drag_update; integrators)
-    drag_limit: tuple  # the auto rule's drag limit dt <= 1/C_max (explicit drag)
+    drag_limit: bool  # the auto rule's drag limit dt <= 1/C_max (explicit drag)
 
 
 @njit(cache=True)
@@ -157,7 +160,7 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
     return err
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
     """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
     t0 = wtime()
@@ -183,7 +186,7 @@ def _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit):
     maxima[0] = v
     maxima[1] = th
     maxima[2] = a
-    maxima[3] = drag_maximum(parts.drag, parts.kind, parts.n_own) if len(drag_limit) else 0.0
+    maxima[3] = drag_maximum(parts.drag, parts.kind, parts.n_own) if drag_limit else 0.0
     if allreduce(plan.h, OP_MAX, maxima, maxima_all) != 0:
         return -2.0
     vmax, theta_max, amax = maxima_all[0], min(maxima_all[1], 0.999), maxima_all[2]
@@ -206,7 +209,7 @@ def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
     return 1 if sums_all[0] > 0 or not sums_all[1] <= lim.ke_bound else 0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control, flags,
                    flags_all, bad, skin, timers, req, stat):
     """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
@@ -265,7 +268,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     while ctl.step < ctl.stop_step:
         # -- the step's dt
         land = False
-        if len(dt_auto):
+        if dt_auto:
             dt = _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit)
             if dt == -2.0:
                 return MPI_ERROR
@@ -302,7 +305,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         else:
             bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         ctl.step += 1
-        if len(dt_auto):
+        if dt_auto:
             ctl.t = ctl.t_target if land else ctl.t + dt
         else:
             ctl.t = ctl.step * rule.dt

@@ -49,8 +49,8 @@ class CompiledSteps:
             ps, R, N, cfg, integ = self.ps, self.rates, self.neighbours, self.cfg, self.integrator
             threaded = numba.get_num_threads() > 1
             sw = pass_data.switch
-            modes = Modes(sw(integ.midpoint), sw(cfg.dt_auto), sw(threaded), integ.implicit,
-                          sw(integ.explicit_drag))
+            modes = Modes(sw(integ.midpoint), bool(cfg.dt_auto), sw(threaded), integ.implicit,
+                          bool(integ.explicit_drag))
             self._modes = modes
             self._args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), Motion(*integ.motion(ps)),
                           N.cells, N.local, N.box, N.work, R.consts, R.switches,
