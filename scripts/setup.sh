@@ -8,7 +8,7 @@
 #            h5py built against the MPI-enabled HDF5, and parsph (editable)
 #   loops  : parsph's numba loops compiled into numba's cache (__pycache__
 #            beside the sources) by tiny runs (parsph.cli.warm): the paper case
-#            that scripts/main.sh runs; with --suite (scripts/test.sh) also what
+#            that scripts/main.sh runs (on 1 rank, then 2); with --suite (scripts/test.sh) also what
 #            the test suite runs in launched processes and under mpirun, in one
 #            process per core; again after a change of parsph/ or run/. Any
 #            other case compiles at its first run, and says so.
@@ -45,7 +45,9 @@ warm_loops() {
     else
         say "compiling the paper case's loops into numba's cache (about a minute, once per change of parsph/ or run/; other cases compile at their first run)"
     fi
-    "$VENV/bin/python" -m parsph.cli.warm "$ROOT/run" "${WARM_ARGS[@]}" || die "compiling the loops failed"
+    # (Open MPI's settings: the paper case also runs on 2 ranks, as main.sh runs it)
+    (source "$ROOT/scripts/mpienv.sh" && "$VENV/bin/python" -m parsph.cli.warm "$ROOT/run" "${WARM_ARGS[@]}") \
+        || die "compiling the loops failed"
     for f in "$VENV"/.parsph-loops-*; do  # the stamps of other sources
         case "$f" in "$LOOPS"-*) ;; *) rm -f "$f" ;; esac
     done

@@ -11,7 +11,10 @@ the types (the compile-time switches of :mod:`parsph.sph.pass_data` and
 box, one rank each:
 
 - by default what ``scripts/main.sh`` runs: the paper case (RUN_DIR's
-  couette_paper.toml, default the repository's ``run/``) on one thread;
+  couette_paper.toml, default the repository's ``run/``) on one thread, in
+  this process, then on two ranks (``mpirun -n 2``, with the flags of
+  ``PARSPH_MPIRUN_FLAGS``: what one rank never calls, the particles'
+  migration between slabs);
 - with ``--suite`` also what the test suite (``scripts/test.sh``) runs in
   launched processes and under mpirun, where each process or rank would
   compile it again: every run file of RUN_DIR on one thread and the variants
@@ -46,7 +49,9 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "2")  # the threaded passes compile e
 TINY = ["domain.Ly=0.003", "output.t_end=3e-5", "output.times=[3e-5]", "output.progress_interval=0"]
 TINY_3D = ["domain.Lz=0.0006"]
 RUN_DIR = Path(__file__).resolve().parents[2] / "run"
-MAIN = [("couette_paper.toml", [], 1)]  # scripts/main.sh: the paper case, one thread per rank
+# scripts/main.sh: the paper case on 2 ranks, one thread each (a case's fourth field: its ranks, under mpirun;
+# default 1, in process); on 2 ranks 50 steps, so that the neighbour list is rebuilt and particles migrate
+MAIN = [("couette_paper.toml", [], 1), ("couette_paper.toml", ["output.t_end=5e-4", "output.times=[5e-4]"], 1, 2)]
 # (run file, overrides, threads) that the suite runs in launched processes (tests/mpi_helpers/scene_ranks.py,
 # parsph run / converge from the CLI tests) and under mpirun (the MPI phases: test_compiled_step's CASES,
 # test_mpi_parallel, test_mpi_scenes) beyond the run files on one thread. A test that launches a variant not
@@ -83,6 +88,10 @@ SUITE = [
 QUEUE = "PARSPH_WARM_QUEUE"  # a worker's shared folder: the lock, the next case, the results
 
 
+def _ranks(case):
+    return case[3] if len(case) > 3 else 1
+
+
 def _tiny(path):
     return TINY + (TINY_3D if "dim = 3" in Path(path).read_text() else [])
 
@@ -90,32 +99,45 @@ def _tiny(path):
 def variants(run_dir, suite=False):
     """(run file, overrides, threads) of every case to run: main.sh's, and with ``suite`` the suite's."""
     run_dir = Path(run_dir)
-    picked = [(run_dir / name, sets, threads) for name, sets, threads in MAIN]
+    picked = [(run_dir / c[0], *c[1:]) for c in MAIN]
     if suite:
         picked += [(path, [], 1) for path in sorted(run_dir.glob("*.toml"))]
-        picked += [(run_dir / name, sets, threads) for name, sets, threads in SUITE]
+        picked += [(run_dir / c[0], *c[1:]) for c in SUITE]
     out = []
-    for path, sets, threads in picked:
-        case = (path, _tiny(path) + list(sets), threads)
+    for c in picked:
+        path, sets, threads = c[:3]
+        case = (path, _tiny(path) + list(sets), threads, _ranks(c))
         if path.exists() and case not in out:
             out.append(case)
     return out
 
 
 def describe(case):
-    """A case as one line: the run file, the overrides beyond the tiny box's, the threads."""
-    path, sets, threads = case
+    """A case as one line: the run file, the overrides beyond the tiny box's, the threads (and ranks)."""
+    path, sets, threads, ranks = case
     more = [s for s in sets if s not in TINY + TINY_3D]
-    return " ".join([Path(path).name] + more + [f"--threads {threads}"])
+    return " ".join(([f"mpirun -n {ranks}"] if ranks > 1 else []) + [Path(path).name] + more
+                    + [f"--threads {threads}"])
 
 
 def run_case(parsph, case, out):
     """Run one case with ``parsph`` (the command's main) into the directory ``out``, quietly: (exit code,
-    what it wrote on stderr)."""
-    path, sets, threads = case
+    what it wrote on stderr). A case on several ranks runs under ``mpirun`` (its ranks compile what this
+    process has not saved into the cache, and save it)."""
+    path, sets, threads, ranks = case
     args = ["run", str(path), "--out", str(out), "--quiet", "--threads", str(threads)]
     for s in sets:
         args += ["--set", s]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *os.environ.get("PARSPH_MPIRUN_FLAGS", "").split(), sys.executable,
+               "-m", "parsph", *args]
+        try:
+            # os.environ as Python read it at start: the variables MPI_Init set in C (this process runs
+            # on a singleton COMM_WORLD) would make the nested mpirun fail
+            p = subprocess.run(cmd, capture_output=True, text=True, timeout=1800, env=dict(os.environ))
+        except (OSError, subprocess.TimeoutExpired) as e:
+            return 1, str(e)
+        return p.returncode, p.stderr + p.stdout
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
         code = parsph(args)
     return code, err.getvalue()
@@ -179,7 +201,7 @@ def main(argv=None):
         Path(folder, f"result.{os.getpid()}").write_text(json.dumps([seconds, failed]))
         return 0
     t0 = time.perf_counter()
-    jobs = max(1, min(a.jobs, len(cases)))
+    jobs = max(1, min(a.jobs, len(cases) - 1))  # the processes share the cases after the first
     if jobs == 1:
         seconds, failed = run_cases(cases)
     else:
