@@ -8,7 +8,7 @@ the source's content, the CPU and numba's version), which later processes
 load in well under a second. A run file's scene, dimension and terms decide
 the types (the compile-time switches of :mod:`parsph.sph.pass_data` and
 :mod:`parsph.simulation.block`), so this runs cases for a few steps on a tiny
-box, one rank each:
+box, one rank each unless said:
 
 - by default what ``scripts/main.sh`` runs: the paper case (RUN_DIR's
   couette_paper.toml, default the repository's ``run/``) on one thread, in
@@ -52,7 +52,7 @@ RUN_DIR = Path(__file__).resolve().parents[2] / "run"
 # scripts/main.sh: the paper case on 2 ranks, one thread each (a case's fourth field: its ranks, under mpirun;
 # default 1, in process); on 2 ranks 50 steps, so that the neighbour list is rebuilt and particles migrate
 MAIN = [("couette_paper.toml", [], 1), ("couette_paper.toml", ["output.t_end=5e-4", "output.times=[5e-4]"], 1, 2)]
-# (run file, overrides, threads) that the suite runs in launched processes (tests/mpi_helpers/scene_ranks.py,
+# (run file, overrides, threads[, ranks]) that the suite runs in launched processes (tests/mpi_helpers/scene_ranks.py,
 # parsph run / converge from the CLI tests) and under mpirun (the MPI phases: test_compiled_step's CASES,
 # test_mpi_parallel, test_mpi_scenes) beyond the run files on one thread. A test that launches a variant not
 # here compiles it in every process (each rank of each pytest worker) at once: add it here.
@@ -97,7 +97,7 @@ def _tiny(path):
 
 
 def variants(run_dir, suite=False):
-    """(run file, overrides, threads) of every case to run: main.sh's, and with ``suite`` the suite's."""
+    """(run file, overrides, threads, ranks) of every case to run: main.sh's, and with ``suite`` the suite's."""
     run_dir = Path(run_dir)
     picked = [(run_dir / c[0], *c[1:]) for c in MAIN]
     if suite:
