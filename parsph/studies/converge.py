@@ -26,7 +26,7 @@ import numpy as np
 
 from parsph.errors import UsageError, agree
 from parsph.setup import config
-from parsph.simulation.case import run_case
+from parsph.simulation.case import run_case, set_threads
 from parsph.simulation.solver import Simulation
 from .levels import BIAS_MIN, bias_of, bias_run_file
 from .runs import RunDirs, Runs
@@ -127,7 +127,7 @@ class Study:
             return rec
         if not self._warm:  # a coarse level too small for the rank count is bad input on every rank alike
             self.running = f"the warm-up of N_x = {plan.levels[0].nx} ({fam})"
-            agree(comm, lambda: _warm_up(comm, plan.levels[0].run_file))
+            agree(comm, lambda: _warm_up(comm, plan.levels[0].run_file, self.threads))
             self._warm = True
         path = os.path.join(ldir, self.stem + ".toml")
         agree(comm, lambda: _write(root, ldir, path, text))
@@ -144,9 +144,10 @@ class Study:
         return rec
 
 
-def _warm_up(comm, run_file):
-    """A few steps of a level and an output's frame of them, untimed, so that loading (or compiling) numba's
-    code of the step and of the outputs is not counted as cost."""
+def _warm_up(comm, run_file, threads):
+    """A few steps of a level and an output's frame of them, on the levels' threads, untimed, so that loading
+    (or compiling) numba's code of the step and of the outputs is not counted as cost."""
+    set_threads(threads)  # before it, the process's default: the threaded versions, which the levels do not run
     cfg = config.build(run_file)
     sim = Simulation(config.build(run_file.set("output", t_end=2.5 * cfg.dt, times=[])), comm).run()
     sim.frame(True)
