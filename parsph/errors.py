@@ -3,7 +3,7 @@
 The bottom layer: imports nothing of parsph, so any module may raise or catch
 these. Bad input (:class:`ConfigError`, :class:`DecompositionError`,
 :class:`UsageError`) ends a command with exit code 2, a failed run-time check
-(:class:`GuardError`) with 3, a stop signal (:class:`Interrupted`) with 130 or
+(:class:`GuardError`) or a failed gas solve (:class:`SolveError`) with 3, a stop signal (:class:`Interrupted`) with 130 or
 143 (:mod:`parsph.cli.exits`).
 """
 
@@ -33,6 +33,11 @@ class GuardError(RuntimeError):
     def __init__(self, result):
         super().__init__(result.message)
         self.result = result
+
+
+class SolveError(RuntimeError):
+    """The solved gas's pressure solve failed (no finite answer); raised on every rank alike, naming the
+    step and the time."""
 
 
 class Interrupted(RuntimeError):

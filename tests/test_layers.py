@@ -22,6 +22,7 @@ TABLE = [
     ("parsph/compile_settings.py", "nothing of parsph"),
     ("parsph/physics/", "errors"),
     ("parsph/sph/", "physics"),
+    ("parsph/gas/", "errors, physics"),
     ("parsph/parallel/", "errors, sph's particles and cell grid (never the equations); mpi4py"),
     ("parsph/output/", "nothing of parsph but its version; h5py, mpi4py"),
     ("parsph/setup/", "errors, physics, sph (particle kinds, integrator names, the cell grid)"),

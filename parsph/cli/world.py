@@ -6,7 +6,7 @@ rank is left waiting.
 import signal
 import sys
 
-from parsph.errors import GuardError, Interrupted, UsageError
+from parsph.errors import GuardError, Interrupted, SolveError, UsageError
 from .exits import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_GUARD, EXIT_SIGNAL
 
 
@@ -59,7 +59,7 @@ def reporting(comm, fn):
         if root:
             print(f"parsph: error: {e}", file=sys.stderr, flush=True)
         return EXIT_BAD_INPUT
-    except GuardError as e:  # raised on every rank alike
+    except (GuardError, SolveError) as e:  # raised on every rank alike
         if root:
             print(f"parsph: error: {e}; earlier outputs are intact", file=sys.stderr, flush=True)
         return EXIT_GUARD

@@ -59,16 +59,30 @@ class Gas:
     rho: float         # [kg/m^3]
     mu: float          # [Pa s]
     d: float           # grain diameter [m]
-    flow: str          # "stream" or "column"
+    flow: str          # "stream", "column" or "solved"
     velocity: tuple    # stream: the gas velocity per dimension [m/s] (column: zeros)
-    U: float           # column: superficial velocity [m/s]
-    axis: int          # column: the axis of gravity (-1 for a stream)
-    sign: float        # column: e = sign * unit(axis)
+    U: float           # column, solved: superficial velocity [m/s] (fed through the floor)
+    axis: int          # column, solved: the axis of gravity (-1 for a stream)
+    sign: float        # column, solved: e = sign * unit(axis)
     implicit: bool     # numerics.drag_update
+    cell: float = 0.0         # solved: the grid's cell size [m]
+    K_max: float = 0.0        # solved: the cap of K in the pressure solve [m^2/(Pa s)]
+    solve_every: int = 1      # solved: steps between pressure solves
 
     @property
     def column(self):
+        """The column's closure: the gas velocity per particle from U (1-D in the mean)."""
         return self.flow == "column"
+
+    @property
+    def solved(self):
+        """The gas pressure solved on a grid (:mod:`parsph.gas`)."""
+        return self.flow == "solved"
+
+    @property
+    def fed(self):
+        """Fed at U along the axis opposite to gravity: a column, by its closure or solved."""
+        return self.flow in ("column", "solved")
 
 
 @dataclass(frozen=True)
@@ -143,7 +157,7 @@ class RunConfig:
         gas = self.gas
         if gas is None:
             return 0.0
-        if not gas.column:
+        if not gas.fed:
             return math.sqrt(sum(u * u for u in gas.velocity))
         g = math.sqrt(sum(x * x for x in self.g))
         u_t = closures_drag.terminal_velocity(self.rho_s, gas.rho, g, gas.d, gas.mu)
@@ -156,7 +170,7 @@ class RunConfig:
         if gas is None:
             return 0.0
         K = closures_drag.rate(gas.model, theta, slip * slip, self.rho_s, gas.rho, gas.mu, gas.d)
-        return K / (1.0 - theta) if gas.column else K
+        return K / (1.0 - theta) if gas.fed else K
 
     def error_scale(self, t):
         """What errors of the scene's error field are relative to at time t [m/s or 1]: the amplitude left
@@ -260,7 +274,8 @@ def _body_force(v, dim, scene):
 def _gas(v, dim, g, rho_s):
     """The run's Gas, or None with gas.drag = "none" (then no other gas key may be given)."""
     gas = v["gas"]
-    given = [key for key in ("rho", "mu", "flow", "velocity", "U") if gas[key] is not None]
+    given = [key for key in ("rho", "mu", "flow", "velocity", "U", "cell", "K_max", "solve_every")
+             if gas[key] is not None]
     if gas["drag"] == "none":
         if given:
             raise ConfigError(f"gas.{given[0]}", 'has no effect with gas.drag = "none": give gas.drag '
@@ -297,9 +312,53 @@ def _gas(v, dim, g, rho_s):
         axis = axes[0]
         sign = -1.0 if g[axis] > 0 else 1.0
         U = gas["U"] or 0.0
+    solved = _solved_gas(v, dim, g, flow, gas)
     return Gas(gas["drag"], closures_drag.MODELS[gas["drag"]], float(rho), float(mu),
                float(d), flow, tuple(float(x) for x in velocity), float(U), axis, sign,
-               v["numerics"]["drag_update"] == "implicit")
+               v["numerics"]["drag_update"] == "implicit", **solved)
+
+
+# the solved gas's default cell: 4 dx (1.6 times the cubic spline's support 2h at h = 1.25 dx). A grid that
+# resolves less than the solids pressure's kernel lets particle-scale voids channel the gas: in
+# run/fluidized_bed.toml v_y grows from round-off at 24/s with cells of 2 dx, and a particle crosses the
+# floor with cells of dx; with 4 dx it stays at round-off (docs/validation.md, "The solved gas")
+CELL_DX = 4.0
+K_MAX_FACTOR = 1000.0  # the default cap of K: this times K(theta0) (docs/physics.md, reference 6)
+
+
+def _solved_gas(v, dim, g, flow, gas):
+    """The solved gas's grid keys (cell, K_max, solve_every); they belong to it alone. K_max's default is
+    left 0 here and set from K(theta0) by :func:`solved_cap`."""
+    if flow != "solved":
+        for key in ("cell", "K_max", "solve_every"):
+            if gas[key] is not None:
+                raise ConfigError(f"gas.{key}", f'belongs to the solved gas: give gas.flow = "solved" (not "{flow}")')
+        return {}
+    scene = get_scene(v["scene"]["name"])
+    if dim != 2:
+        raise ConfigError("scene.dim", "the solved gas runs in 2-D (its grid is two-dimensional): give scene.dim = 2")
+    if not scene.walls:
+        raise ConfigError("gas.flow", f'the solved gas needs a floor and a lid (walls at x = 0 and x = L); the '
+                          f'{scene.name} scene has none')
+    if not (g[0] < 0.0 and g[1] == 0.0):
+        raise ConfigError("body_force.g", f"the solved gas is fed through the floor at x = 0: give gravity along -x, "
+                          f"got {list(g)}")
+    return dict(cell=float(gas["cell"] or 0.0), K_max=float(gas["K_max"] or 0.0),
+                solve_every=int(gas["solve_every"] or 1))
+
+
+def _solved_grid(gas, lat):
+    """The solved gas's cell size (default :data:`CELL_DX` dx) against the box, and its default cap K_max =
+    :data:`K_MAX_FACTOR` K(theta0) where none is given."""
+    Lx, Ly, dx = lat["L"], lat["Ly"], lat["dx"]
+    cell = gas.cell or CELL_DX * dx
+    if not cell <= min(Lx, Ly) / 2.0 * (1.0 + 1e-12):
+        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than 2 cells across the box "
+                          f"({Lx:g} m x {Ly:g} m: domain.L x domain.Ly)")
+    if not (Lx / cell <= 4096 and Ly / cell <= 4096):
+        raise ConfigError("gas.cell", f"{cell:g} m makes more than 4096 cells along an axis (the solve is one "
+                          "rank's sparse direct solve)")
+    return replace(gas, cell=float(cell))
 
 
 def _time_step(v, cfg):
@@ -359,6 +418,8 @@ def build(run_file):
     layers = _wall_layers(v, lat, hkey, scene, get_kernel(num["kernel"], dim))
     g = _body_force(v, dim, scene)
     gas = _gas(v, dim, g, mat["rho_s"])
+    if gas is not None and gas.solved:
+        gas = _solved_grid(gas, lat)
     theta0 = mat["theta0"]
     cfg = RunConfig(
         values=v, text=text, **lat, layers=layers,

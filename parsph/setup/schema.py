@@ -92,13 +92,23 @@ SCHEMA = {
                     doc="the gas's drag on the solids: none (the paper's case), or its closure"),
         "rho": Key("float", None, nonnegative=True, doc="gas density [kg/m^3] (default 1.2, air)"),
         "mu": Key("float", None, positive=True, doc="gas viscosity [Pa s] (default 1.8e-5, air)"),
-        "flow": Key("str", None, choices=("stream", "column"),
-                    doc="the gas velocity: a given stream, or a column fed at superficial velocity U against "
-                        "gravity (default stream)"),
+        "flow": Key("str", None, choices=("stream", "column", "solved"),
+                    doc="the gas velocity: a given stream, a column fed at superficial velocity U against "
+                        "gravity (one-dimensional in the mean), or solved: the gas pressure on a grid, fed at U "
+                        "through the floor (default stream)"),
         "velocity": Key("floatlist", None, doc="stream: the gas velocity, one entry per dimension [m/s] "
                                                "(default at rest)"),
         "U": Key("float", None, nonnegative=True,
                  doc="column: superficial gas velocity along the axis opposite to gravity [m/s] (default 0)"),
+        "cell": Key("float", None, positive=True,
+                    doc="solved: the grid's cell size [m] (default 4 dx; adjusted to tile the box)"),
+        "K_max": Key("float", None, positive=True,
+                     doc="solved: the cap of the gas's permeability K = eps^2 / beta in the pressure solve "
+                         "[m^2/(Pa s)] (default 1000 K(theta0): a void carries 2 kappa U / (1 + kappa), within "
+                         "0.1% of 2 U)"),
+        "solve_every": Key("int", None, lo=1, hi=10 ** 6,
+                           doc="solved: the pressure solved every n steps, its flux interpolated to the particles "
+                               "every step (default 1)"),
     },
     "output": {
         "t_end": Key("float", REQUIRED, positive=True, doc="end time [s]"),

@@ -35,12 +35,13 @@ from parsph.sph.rates import Rates
 from . import block, start
 from .compiled_steps import CompiledSteps, native_route
 from .frames import Frames
+from .gas_stage import GasStage
 from .guards import limits_of, run_checks
 from .integrator import Integrator
 from .list_keeper import ListKeeper
 from .timeline import Ticker, Timeline
 
-PHASES = ("sync", "rebuild", "density", "halo", "forces", "integrate", "output", "checks")
+PHASES = ("sync", "rebuild", "gas", "density", "halo", "forces", "integrate", "output", "checks")
 
 
 class Simulation:
@@ -68,6 +69,7 @@ class Simulation:
         if cfg.gas is not None:
             ps.add_field("drag")
             ps.add_field("drag_rate", vector=False)
+        self.gas = GasStage(cfg, comm, ps) if cfg.gas is not None and cfg.gas.solved else None
         self.timeline = Timeline(cfg, None if state is None else state["attrs"])
         self.keeper = ListKeeper(self.ring, self.grid, self.skin, self.collect, self.integrator.position_fields,
                                  self.timers, clock)
@@ -104,6 +106,10 @@ class Simulation:
     def compute_rates(self):
         """Density, theta and accelerations of the owned particles at the current state."""
         self._sync()
+        if self.gas is not None:
+            t0 = self.clock()
+            self.gas(self.ps, self.step, self.t)
+            self.timers["gas"] += self.clock() - t0
         self.rates(self.ps, self.ring, self.timers, self.clock)
         self._fresh = True
 
@@ -259,7 +265,7 @@ class Simulation:
         BLOCK_SECONDS of them), in compiled blocks that run the checks too where the messages can be sent
         from compiled code, else one step."""
         target = self.timeline.target(pending)
-        if not self.native:
+        if not self.native or self.gas is not None:  # the gas's solve is Python's, between the sync and the passes
             self.python_step(stop_requested, target)
             return
         stop_step = self.timeline.stop_step(pending, most or self.blocks.steps)

@@ -83,5 +83,5 @@ def gas_constants(gas):
         return pass_data.GasConstants(0, 0.0, 0.0, 0.0, 0, 0, 0.0, 0.0, np.zeros(3))
     u = np.zeros(3)
     u[:len(gas.velocity)] = gas.velocity
-    return pass_data.GasConstants(gas.model, gas.rho, gas.mu, gas.d, int(gas.column), max(gas.axis, 0),
+    return pass_data.GasConstants(gas.model, gas.rho, gas.mu, gas.d, pass_data.FLOWS[gas.flow], max(gas.axis, 0),
                                   gas.sign, gas.U, u)

@@ -78,6 +78,7 @@ from parsph.physics.drag import GIDASPOW, STOKES, WEN_YU, rate
 from parsph.physics.kernels import kernel_w_f
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
 from .particles import FLUID
+from .pass_data import COLUMN, SOLVED  # the gas's flows (GasConstants.flow)
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
 CHUNK = 1024  # pairs per chunk of the density pass's vector loop (its scratch: 8 KiB)
@@ -392,18 +393,18 @@ def momentum_serial(lst, parts, c, sw):
             if len(three_d):
                 acc[i, 2] = az
     _finish_acc(acc, kind, g, three_d, n_own, drag_on, parts.vel, parts.theta, rho_s, c.gas, parts.drag,
-                parts.drag_rate)
+                parts.drag_rate, parts.flux)
 
 
 @njit(cache=True, error_model="numpy")
-def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, drag, drag_rate):
+def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, drag, drag_rate, flux):
     """Owned fluid particles: + g, + the gas's drag (:func:`drag_rates` first, then :func:`drag_plain` per
     particle, with ``drag_on``); owned walls: zero (one call: an inlined call per particle would count
     references to its arrays every time). numpy's error model: with Python's, the drag's divisions and powers
     test for zero and took 4x as long."""
     if len(drag_on):
-        drag_rates(n_own, vel, theta, rho_s, gas.model, gas.rho, gas.mu, gas.d, gas.column, gas.axis, gas.sign,
-                   gas.U, gas.u, drag_rate, three_d)
+        drag_rates(n_own, vel, theta, rho_s, gas.model, gas.rho, gas.mu, gas.d, gas.flow, gas.axis, gas.sign,
+                   gas.U, gas.u, flux, drag_rate, three_d)
     for k in range(n_own):
         if kind[k] == FLUID:
             acc[k, 0] += g[0]
@@ -411,7 +412,7 @@ def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, d
             if len(three_d):
                 acc[k, 2] += g[2]
             if len(drag_on):
-                drag_plain(k, vel, 1.0 - theta[k], gas.column, gas.axis, gas.sign, gas.U, gas.u, acc, drag,
+                drag_plain(k, vel, 1.0 - theta[k], gas.flow, gas.axis, gas.sign, gas.U, gas.u, flux, acc, drag,
                            drag_rate[k], three_d)
         else:
             acc[k, 0] = 0.0
@@ -458,19 +459,44 @@ def flat(a):
     return a.reshape(a.shape[0] * a.shape[1])
 
 
+@njit(cache=True, inline="always")
+def solved_slip2(k, vf, theta, flux, three_d):
+    """|u_g,k - v_k|^2 in the solved gas: eps (u_g - v) = j - v with j the mixture's flux at the particle
+    (``flux[k]``, from the grid: :mod:`parsph.gas`), so the slip is (j - v_k) / eps_k."""
+    dim = 3 if len(three_d) else 2
+    s0 = flux[k, 0] - vf[dim * k]
+    s1 = flux[k, 1] - vf[dim * k + 1]
+    slip2 = s0 * s0 + s1 * s1
+    if len(three_d):
+        s2 = flux[k, 2] - vf[dim * k + 2]
+        slip2 += s2 * s2
+    e = 1.0 - theta[k]
+    return slip2 / (e * e)
+
+
+@njit(cache=True, inline="always")
+def flow_slip2(k, vf, theta, flow, axis, sign, U, u0, u1, u2, flux, three_d):
+    """|u_g,k - v_k|^2 for the gas's flow (STREAM, COLUMN, SOLVED)."""
+    if flow == COLUMN:
+        return column_slip2(k, vf, theta, axis, sign, U, three_d)
+    if flow == SOLVED:
+        return solved_slip2(k, vf, theta, flux, three_d)
+    return stream_slip2(k, vf, u0, u1, u2, three_d)
+
+
 @njit(cache=True, error_model="numpy")
-def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, axis, sign, U, u, K, three_d):
+def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, flow, axis, sign, U, u, flux, K, three_d):
     """K[k] = :func:`parsph.physics.drag.rate` at (theta_k, |u_g,k - v_k|^2) for k < n_own, walls included
     (unused there): one loop per closure and kind of gas flow, each branch-free (the model a constant) so that
     it runs on vector registers, fastmath's log, exp and atan included. Plain arguments, as drag_plain's;
     :func:`_momentum_threaded` calls it on chunks of the arrays in parallel (a parallel loop of these bodies
-    took about 20 s to compile per version)."""
+    took about 20 s to compile per version). ``flux``: the solved gas's j per particle (else unread)."""
     u0, u1, u2 = u[0], u[1], u[2]
     vf = flat(vel)
     if model == STOKES:
         for k in range(n_own):
             K[k] = rate(STOKES, theta[k], 0.0, rho_s, rho_g, mu_g, d_grain)
-    elif column:
+    elif flow == COLUMN:
         if model == WEN_YU:
             for k in range(n_own):
                 K[k] = rate(WEN_YU, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s, rho_g,
@@ -479,6 +505,9 @@ def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, ax
             for k in range(n_own):
                 K[k] = rate(GIDASPOW, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s, rho_g,
                             mu_g, d_grain)
+    elif flow == SOLVED:
+        for k in range(n_own):
+            K[k] = rate(model, theta[k], solved_slip2(k, vf, theta, flux, three_d), rho_s, rho_g, mu_g, d_grain)
     elif model == WEN_YU:
         for k in range(n_own):
             K[k] = rate(WEN_YU, theta[k], stream_slip2(k, vf, u0, u1, u2, three_d), rho_s, rho_g, mu_g, d_grain)
@@ -488,7 +517,7 @@ def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, column, ax
 
 
 @njit(cache=True, inline="always")
-def drag_plain(k, vel, eps, column, axis, sign, U, u, acc, drag, Kk, three_d):
+def drag_plain(k, vel, eps, flow, axis, sign, U, u, flux, acc, drag, Kk, three_d):
     """The drag on fluid particle k, beside Eq. (5)'s sums and gravity with buoyancy (Constants.g):
 
         dv_k/dt += beta_k (u_g,k - v_k) / (rho_s theta_k eps_k),   eps = 1 - theta,
@@ -496,18 +525,21 @@ def drag_plain(k, vel, eps, column, axis, sign, U, u, acc, drag, Kk, three_d):
     theta_k from Eq. (3), beta_k the closure's at |u_g,k - v_k|, Kk = beta_k / (rho_s theta_k eps_k) from
     :func:`drag_rates`, eps = eps_k. Written per component as C (w - v_k): a stream has C = K and
     w = u_g; a column (gas fed at U along e, opposite to gravity) has u_g.e = (U - theta v.e) / eps, so
-    along e C = K / eps and w = U e, across it C = K and w = 0. ``drag[k]`` keeps C per component,
+    along e C = K / eps and w = U e, across it C = K and w = 0; the solved gas has eps (u_g - v) = j - v
+    with j the mixture's flux from the grid (``flux[k]``), so C = K / eps and w = j along every axis (a
+    column's along e, exactly, where j = U e). ``drag[k]`` keeps C per component,
     what the implicit update divides by (:mod:`parsph.sph.integrators`) and the auto rule reads.
     Plain arguments: the threaded pass calls it inside a parallel loop, which misreads named tuples' arrays.
     The components written out (``three_d`` a switch; u has 3): a loop over vel.shape[1] took longer; every
-    array read unconditionally, else numba counts its references per particle."""
+    array read unconditionally (``flux`` only in the solved gas, the one flow that has it), else numba counts
+    its references per particle."""
     c0 = Kk
     c1 = Kk
     c2 = Kk
     w0 = u[0]
     w1 = u[1]
     w2 = u[2]
-    if column:
+    if flow == COLUMN:
         ce = Kk / eps
         we = sign * U
         c0 = ce if axis == 0 else Kk
@@ -516,6 +548,14 @@ def drag_plain(k, vel, eps, column, axis, sign, U, u, acc, drag, Kk, three_d):
         w0 = we if axis == 0 else 0.0
         w1 = we if axis == 1 else 0.0
         w2 = we if axis == 2 else 0.0
+    elif flow == SOLVED:
+        c0 = Kk / eps
+        c1 = c0
+        c2 = c0
+        w0 = flux[k, 0]
+        w1 = flux[k, 1]
+        if len(three_d):
+            w2 = flux[k, 2]
     acc[k, 0] += c0 * (w0 - vel[k, 0])
     acc[k, 1] += c1 * (w1 - vel[k, 1])
     drag[k, 0] = c0
@@ -528,8 +568,8 @@ def drag_plain(k, vel, eps, column, axis, sign, U, u, acc, drag, Kk, three_d):
 @njit(cache=True, parallel=True, error_model="numpy")
 def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fields, need, n_own, rho_s, G_b,
                       k_visc, L, beta_max, g, pressure, viscosity, symmetric_mu, walls, consistent, three_d, acc,
-                      Pp, Vp, offset, entry, drag_on, vel, theta, model, rho_g, mu_g, d_grain, column, axis, sign,
-                      U, u, drag, drag_rate):
+                      Pp, Vp, offset, entry, drag_on, vel, theta, model, rho_g, mu_g, d_grain, flow, axis, sign,
+                      U, u, flux, drag, drag_rate):
     """:func:`momentum_threaded` on plain arguments (see :func:`_density_threaded`); the drag's K by
     :func:`drag_rates` on chunks of the arrays, in parallel."""
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
@@ -551,8 +591,8 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         for c in prange((n_own + DRAG_CHUNK - 1) // DRAG_CHUNK):
             lo = c * DRAG_CHUNK
             hi = min(lo + DRAG_CHUNK, n_own)
-            drag_rates(hi - lo, vel[lo:hi], theta[lo:hi], rho_s, model, rho_g, mu_g, d_grain, column, axis, sign,
-                       U, u, drag_rate[lo:hi], three_d)
+            drag_rates(hi - lo, vel[lo:hi], theta[lo:hi], rho_s, model, rho_g, mu_g, d_grain, flow, axis, sign,
+                       U, u, flux[lo:hi], drag_rate[lo:hi], three_d)
     for k in prange(n_own):
         ax = 0.0
         ay = 0.0
@@ -608,7 +648,7 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         if len(three_d):
             acc[k, 2] = az
         if len(drag_on) and kind[k] == FLUID:
-            drag_plain(k, vel, 1.0 - theta[k], column, axis, sign, U, u, acc, drag, drag_rate[k], three_d)
+            drag_plain(k, vel, 1.0 - theta[k], flow, axis, sign, U, u, flux, acc, drag, drag_rate[k], three_d)
 
 
 @njit(cache=True)
@@ -619,5 +659,5 @@ def momentum_threaded(lst, parts, c, sw, gather):
                        parts.kind, lst.fields, lst.need, parts.n_own, c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max,
                        c.g, sw.pressure, sw.viscosity, sw.symmetric_mu, sw.walls, sw.consistent, sw.three_d,
                        parts.acc, gather.Pp, gather.Vp, gather.offset, gather.entry, sw.drag, parts.vel,
-                       parts.theta, c.gas.model, c.gas.rho, c.gas.mu, c.gas.d, c.gas.column, c.gas.axis, c.gas.sign,
-                       c.gas.U, c.gas.u, parts.drag, parts.drag_rate)
+                       parts.theta, c.gas.model, c.gas.rho, c.gas.mu, c.gas.d, c.gas.flow, c.gas.axis, c.gas.sign,
+                       c.gas.U, c.gas.u, parts.flux, parts.drag, parts.drag_rate)

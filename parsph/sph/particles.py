@@ -20,6 +20,7 @@ Fields:
     jump                 length of the last step's displacement (run-time check 5)
     drag                 with a gas: the drag coefficient per component (pass_data.ParticleArrays.drag)
     drag_rate            with a gas: the closure's K per particle, the drag loops' scratch (ParticleArrays.drag_rate)
+    flux                 the solved gas: the mixture's flux j at the particle, from the grid (ParticleArrays.flux)
 """
 import math
 
@@ -28,7 +29,7 @@ from numba import njit
 
 FLUID, WALL, MOVING_WALL = 0, 1, 2
 # recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
-DERIVED = ("acc", "theta", "disp", "drag", "drag_rate")
+DERIVED = ("acc", "theta", "disp", "drag", "drag_rate", "flux")
 
 
 class Particles:

@@ -16,6 +16,9 @@ import numpy as np
 ON, OFF = (1,), ()
 # columns of the per-particle row the pair loops read (``PairList.fields``)
 VX, VY, VZ, THETA, INV_RHO, INV_THETA, PRESS = 0, 1, 2, 3, 4, 5, 6
+# the gas's flow (GasConstants.flow): a given stream, a column's closure, the solved gas's flux per particle
+STREAM, COLUMN, SOLVED = 0, 1, 2
+FLOWS = {"stream": STREAM, "column": COLUMN, "solved": SOLVED}
 
 
 def switch(flag):
@@ -41,7 +44,7 @@ class GasConstants(NamedTuple):
     rho: float        # [kg/m^3]
     mu: float         # [Pa s]
     d: float          # grain diameter [m]
-    column: int       # 1: a column (the gas velocity follows from U); 0: a stream
+    flow: int         # STREAM, COLUMN (the gas velocity follows from U) or SOLVED (from ParticleArrays.flux)
     axis: int         # column: the axis of gravity
     sign: float       # column: e = sign * unit(axis), opposite to gravity
     U: float          # column: superficial velocity [m/s]
@@ -105,14 +108,19 @@ class ParticleArrays(NamedTuple):
                        # acceleration C (w - v) (1/tau; the implicit update divides by 1 + dt C); else (0, dim)
     drag_rate: np.ndarray  # with drag: per owned particle the closure's K = beta / (rho_s theta eps) (the drag
                            # loops' contiguous scratch, equations.drag_rates); else (0,)
+    flux: np.ndarray   # the solved gas: per owned particle the mixture's flux j from the grid [m/s]; else (0, dim)
 
 
 def particle_arrays(ps):
-    """The passes' view of a Particles set (its arrays, not copies); ``drag`` and ``drag_rate`` are the set's
-    fields of those names where the run has a gas (:meth:`parsph.sph.particles.Particles.add_field`), else
+    """The passes' view of a Particles set (its arrays, not copies); ``drag``, ``drag_rate`` (and ``flux``) are
+    the set's fields of those names where the run has a gas (the solved gas) (:meth:`parsph.sph.particles.Particles.add_field`), else
     empty arrays."""
     drag = getattr(ps, "drag", None)
     drag_rate = getattr(ps, "drag_rate", None)
     if drag is None:
         drag, drag_rate = np.zeros((0, ps.dim)), np.zeros(0)
-    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own, drag, drag_rate)
+    flux = getattr(ps, "flux", None)
+    if flux is None:
+        flux = np.zeros((0, ps.dim))
+    return ParticleArrays(ps.pos, ps.vel, ps.mass, ps.kind, ps.rho, ps.theta, ps.acc, ps.n_own, drag, drag_rate,
+                          flux)

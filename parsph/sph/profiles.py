@@ -51,3 +51,12 @@ def errors(v_sim, v_ref, scale):
     if e.size == 0:
         return float("nan"), float("nan")
     return float(e.max()), float(np.sqrt(np.mean(e * e)))
+
+
+def mass_quantiles(x, mass, fractions=(0.05, 0.25, 0.5, 0.75, 0.95)):
+    """The heights below which each fraction of a layer's mass lies: the particles sorted by x, their mass
+    summed (each particle's mass at its own x, cumulated to its middle), interpolated linearly."""
+    order = np.argsort(x, kind="stable")
+    xs, ms = np.asarray(x, float)[order], np.asarray(mass, float)[order]
+    cum = np.cumsum(ms) - 0.5 * ms
+    return np.interp(np.asarray(fractions, float) * ms.sum(), cum, xs)

@@ -22,9 +22,9 @@ def reference(cfg, x, t):
 
 def check(cfg):
     gas = cfg.gas
-    if gas is None or not gas.column or not gas.U > 0:
+    if gas is None or not gas.fed or not gas.U > 0:
         raise ConfigError("gas.U", 'the fluidized_bed scene needs a gas column fed at U > 0: give gas.drag, '
-                          'gas.flow = "column" and gas.U')
+                          'gas.flow = "column" (or "solved") and gas.U')
     end = layer.check(cfg, "fluidized_bed")
     tail = end.height_of(min(end.theta_floor, 1e-3 * cfg.theta0))
     if not tail + 2.0 * cfg.h <= cfg.L:

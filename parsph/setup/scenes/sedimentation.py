@@ -35,8 +35,9 @@ def reference(cfg, x, t):
 
 def check(cfg):
     gas = cfg.gas
-    if gas is not None and not gas.column:
-        raise ConfigError("gas.flow", 'the sedimentation scene settles in a closed column: give gas.flow = "column"')
+    if gas is not None and not gas.fed:
+        raise ConfigError("gas.flow", 'the sedimentation scene settles in a closed column: give gas.flow = "column" '
+                          '(its closure) or "solved" (the grid\'s pressure)')
     if gas is not None and gas.U > 0:
         raise ConfigError("gas.U", "the sedimentation scene is a closed column (U = 0); a bed fed at U > 0 is "
                           "the fluidized_bed scene")

@@ -1,0 +1,41 @@
+"""The solved gas's grid: uniform cells over the box, aligned with the slabs (docs/physics.md, "The solved
+gas"). Cell centres at x = (i + 1/2) hx, y = (j + 1/2) hy; x spans the plates (0 .. L) where the scene has
+walls, else the period; y (and z) are periodic."""
+from dataclasses import dataclass
+import math
+
+
+@dataclass(frozen=True)
+class Grid:
+    nx: int
+    ny: int
+    hx: float        # cell size along x [m]
+    hy: float        # cell size along y [m]
+    walls: bool      # x bounded by the plates at 0 and L (else periodic)
+
+    @property
+    def shape(self):
+        return (self.nx, self.ny)
+
+    @property
+    def cells(self):
+        return self.nx * self.ny
+
+    @property
+    def area(self):
+        """A cell's area [m^2] (2-D: volume per unit depth)."""
+        return self.hx * self.hy
+
+    def x_centres(self):
+        return [(i + 0.5) * self.hx for i in range(self.nx)]
+
+
+def cells_along(length, cell):
+    """The number of cells of size about ``cell`` that tile ``length`` exactly (at least 2)."""
+    return max(2, int(math.floor(length / cell + 0.5)))
+
+
+def grid_of(L, Ly, cell, walls):
+    """The grid of a box L x Ly with cells of about ``cell`` [m] (their sizes adjusted to tile it)."""
+    nx, ny = cells_along(L, cell), cells_along(Ly, cell)
+    return Grid(nx, ny, L / nx, Ly / ny, bool(walls))
