@@ -359,8 +359,8 @@ class Column:
     theta = ``theta_top``), ``tail_length`` [m] (above ``top`` theta ~ theta_top exp(-(x - top)/tail_length)).
     theta -> 0 only as x -> infinity: the free top is an exponential tail, not a height."""
 
-    def __init__(self, mass, U, theta_star, sol, top, theta_top, tail_length):
-        self.mass, self.U, self.theta_star = mass, U, theta_star
+    def __init__(self, mass, U, theta_star, sol, top, theta_top, tail_length, rho_s):
+        self.mass, self.U, self.theta_star, self._rho_s = mass, U, theta_star, rho_s
         self._sol, self.top, self.theta_top, self.tail_length = sol, top, theta_top, tail_length
         s = sol.t
         self.x = np.ascontiguousarray((top - s)[::-1])
@@ -377,6 +377,20 @@ class Column:
         inside = np.asarray(self._sol.sol(s.ravel())[0]).reshape(x.shape)
         tail = self.theta_top * np.exp(-np.maximum(x - self.top, 0.0) / self.tail_length)
         return np.where(x <= self.top, inside, tail)
+
+    def quantiles(self, fractions):
+        """The heights [m] below which each of ``fractions`` (in (0, 1)) of the column's mass lies: where the
+        integration's int theta dx from the top (its second component) leaves (1 - fraction) of the mass above
+        (brentq on the dense solution). ValueError for a fraction whose height is in the tail above ``top``."""
+        target = self.mass / self._rho_s
+        out = []
+        for q in np.atleast_1d(np.asarray(fractions, dtype=float)):
+            above = (1.0 - q) * target
+            if not 0.0 < q < 1.0 or above < self._sol.y[1][0]:
+                raise ValueError(f"fraction {q!r}: not in (0, 1), or its height is in the tail above the top")
+            s = brentq(lambda s: self._sol.sol(s)[1] - above, 0.0, self.top, xtol=1e-15 * self.top, rtol=1e-14)
+            out.append(self.top - s)
+        return np.array(out)
 
     def height_of(self, level):
         """The height [m] where theta = level (theta falls monotonically upward), 0 < level <= theta_floor."""
@@ -451,7 +465,7 @@ def steady_column(mass, U, ph, G_a=G_A, G_b=G_B, form="paper", rtol=1e-12):
     if not sol.y_events[0][0][0] < 1.0:
         raise ValueError("the column would need theta >= 1 at its floor")
     tail = theta_top / q(theta_top)
-    return Column(mass, U, theta_star, sol, top, theta_top, tail)
+    return Column(mass, U, theta_star, sol, top, theta_top, tail, ph.rho_s)
 
 
 # ---- 4. batch sedimentation (reference 4) ------------------------------------------------------------------
