@@ -55,3 +55,17 @@ def test_bad_thread_count_is_refused(n, tmp_path):
     assert rc == 2, (rc, out, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "--threads" in lines[0], err
+
+
+def test_thread_limit_says_where_it_comes_from():
+    """The refusal names its cause in one line: NUMBA_NUM_THREADS in the environment, the launcher's binding
+    (fewer usable cores than the machine has: mpirun -n 2 binds each rank to one core) with its remedy, or
+    the cores themselves."""
+    from parsph.simulation.case import thread_limit
+    bound = thread_limit(2, 1, env="", usable=1, cores=2)
+    assert bound.startswith("--threads 2: must be between 1 and 1: ")
+    assert "1 of the machine's 2 cores" in bound and "mpirun --bind-to none" in bound and "\n" not in bound
+    assert "NUMBA_NUM_THREADS=1 in the environment" in thread_limit(2, 1, env="1", usable=1, cores=2)
+    free = thread_limit(5, 2, env="", usable=2, cores=2)
+    assert "bind" not in free and "cores this process may run on" in free
+    assert "bind" not in thread_limit(0, 1, env="", usable=1, cores=2)   # below 1: no binding to blame

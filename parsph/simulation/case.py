@@ -133,8 +133,29 @@ def set_threads(n):
     """numba threads per rank for the prange loops (results do not depend on the count)."""
     most = numba.config.NUMBA_NUM_THREADS
     if not 1 <= n <= most:
-        raise UsageError(f"--threads {n}: must be between 1 and {most} (NUMBA_NUM_THREADS, default the core count)")
+        raise UsageError(thread_limit(n, most))
     numba.set_num_threads(n)
+
+
+def thread_limit(n, most, env=None, usable=None, cores=None):
+    """The one line refusing ``--threads n`` above numba's ``most``, saying where the limit comes from:
+    NUMBA_NUM_THREADS in the environment, else the cores this process may run on (its CPU affinity, which
+    numba counts), naming the launcher's binding and its remedy where that is fewer than the machine's cores
+    (Open MPI binds each rank to one core when it starts 2 ranks or fewer). ``env``, ``usable`` and ``cores``
+    default to the process's own (the environment's NUMBA_NUM_THREADS, len(os.sched_getaffinity(0)),
+    os.cpu_count())."""
+    env = os.environ.get("NUMBA_NUM_THREADS") if env is None else env
+    if usable is None:
+        usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = os.cpu_count() if cores is None else cores
+    head = f"--threads {n}: must be between 1 and {most}"
+    if env:
+        return f"{head}: NUMBA_NUM_THREADS={env} in the environment sets it"
+    if n > most and usable < cores:
+        return (f"{head}: this process may run on {usable} of the machine's {cores} cores (its CPU affinity: the "
+                f"launcher bound it; Open MPI binds each rank to one core by default); start it with "
+                f"'mpirun --bind-to none' (Open MPI; or give each rank its cores, '--map-by slot:pe={n}')")
+    return f"{head} (the cores this process may run on; NUMBA_NUM_THREADS sets another limit)"
 
 
 def _refuse_overwrite(out_dir, stem, first, force):
