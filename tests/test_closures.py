@@ -1,4 +1,4 @@
-"""Closures G(theta), mu(theta) and the paper config's derived quantities (PHYSICS.md, Table 1)."""
+"""Closures G(theta), mu(theta) and the paper config's derived quantities (docs/physics.md, "Table 1")."""
 import math
 
 import numpy as np
@@ -8,12 +8,12 @@ from parsph.physics import closures
 
 
 def test_modulus_at_theta0():
-    # 10^(8.76 * 0.35 - 1.183) = 10^1.883 = 76.38 Pa (PHYSICS.md: 76.4 Pa)
+    # 10^(8.76 * 0.35 - 1.183) = 10^1.883 = 76.38 Pa (docs/physics.md: 76.4 Pa)
     assert abs(closures.modulus(0.35) - 76.38) < 0.05
 
 
 def test_modulus_table_of_extremes():
-    """PHYSICS.md table: G at theta0 = 0.05, 0.60, 0.64, 0.70 (to the 3-4 digits printed)."""
+    """docs/physics.md, "Extremes of theta_0": G at theta0 = 0.05, 0.60, 0.64, 0.70 (to the 3-4 digits printed)."""
     for theta, G in ((0.05, 0.18), (0.60, 11830.0), (0.64, 26510.0), (0.70, 88920.0)):
         assert closures.modulus(theta) == pytest.approx(G, rel=0.03)
 
@@ -64,7 +64,7 @@ def test_paper_derived(paper_cfg, source):
 def test_paper_stability_limits(paper_cfg):
     from parsph.physics import limits
     cfg = paper_cfg()
-    # Monaghan's limits with the closure's c (consistent form) and with the paper form's c_eff (PHYSICS.md)
+    # Monaghan's limits with the closure's c (consistent form) and with the paper form's c_eff (docs/physics.md)
     material, lattice, _ = limits.groups(cfg)
     cons = limits.classical_limits(cfg.theta0, 1.0, material, lattice, limits.Terms(form="consistent"))
     assert cons["cfl"] == pytest.approx(5.2e-5, rel=0.02)
@@ -84,7 +84,7 @@ def test_paper_stability_limits(paper_cfg):
 @pytest.mark.parametrize("theta0,dtcfl", [(0.05, 6.2e-5), (0.35, 4.0e-5), (0.60, 6.4e-6),
                                           (0.64, 4.3e-6), (0.70, 2.3e-6)])
 def test_cfl_limits_table(paper_cfg, theta0, dtcfl):
-    """PHYSICS.md "Extremes worth probing": CFL limits with c_eff, k = 1, V_w = 1 (printed to 2 digits)."""
+    """docs/physics.md, "Extremes of theta_0": CFL limits with c_eff, k = 1, V_w = 1 (printed to 2 digits)."""
     from parsph.physics import limits
     cfg = paper_cfg(f"material.theta0={theta0}", "numerics.dt=\"auto\"")
     material, lattice, _ = limits.groups(cfg)

@@ -84,7 +84,7 @@ CASES = {
     # the support does not reach the next particle: h / dx is the cause, not the wall layers
     "h_over_dx_too_small": (edit(r"^h = 2.5e-4 .*$", "h_over_dx = 0.3"), [],
                             ["error: numerics.h_over_dx:", "too small", "h / dx > 0.5"]),
-    # [gas] (PHYSICS.md, "The solid phase in a gas")
+    # [gas] (docs/physics.md, "The solid phase in a gas")
     "gas_drag_unknown": (None, ["--set", "gas.drag=ergun"], ["gas.drag", "wen_yu"]),
     "gas_mu_zero": (None, ["--set", "gas.drag=stokes", "--set", "gas.mu=0.0"], ["gas.mu", "positive"]),
     "gas_denser_than_solids": (None, ["--set", "gas.drag=stokes", "--set", "gas.rho=2500.0"],

@@ -7,7 +7,7 @@ velocities and, where asked, unequal masses; the solver's own neighbour list,
 density, volume fraction and momentum loops, and Eqs. (6)-(7).
 
 Eq. (5)'s pressure term is pairwise antisymmetric, so it conserves momentum to round-off
-for any particle arrangement. Its viscous term, with mu_i = k theta_i as PHYSICS.md and the
+for any particle arrangement. Its viscous term, with mu_i = k theta_i as docs/physics.md and the
 paper write it, is antisymmetric only where theta_i = theta_j: on a jittered lattice the
 pair (i, j) leaves a net force k m_i m_j (theta_i - theta_j)(theta_i + theta_j)/(rho_i rho_j)
 (dW/dr / r) v_ij. The tests below check each statement separately, and the net force of the

@@ -1,4 +1,4 @@
-"""The solid phase in a gas (PHYSICS.md, "The solid phase in a gas"): the drag term in the step against exact
+"""The solid phase in a gas (docs/physics.md, "The solid phase in a gas"): the drag term in the step against exact
 references, on the periodic box (uniform theta: Eq. (5)'s sums vanish but for the wave).
 
 - drag relaxation in a stream (reference 1): every particle on Eq. (7)'s discrete solution to round-off,
@@ -9,7 +9,7 @@ references, on the periodic box (uniform theta: Eq. (5)'s sums vanish but for th
 - a wall particle gets neither gravity nor drag;
 - each integrator's order in time, with and without drag.
 
-The references are written out here from PHYSICS.md (tau = rho_s d^2 eps^3.65 / (18 mu_g) across,
+The references are written out here from docs/physics.md (tau = rho_s d^2 eps^3.65 / (18 mu_g) across,
 eps^4.65 along a column), not taken from the code under test.
 """
 import math
@@ -56,14 +56,14 @@ def stokes_tau(theta, column=False):
 
 
 def amplification(integrator, update, z):
-    """One step's factor on the slip of dv/dt = -v/tau, z = dt/tau (PHYSICS.md; integrators' doc)."""
+    """One step's factor on the slip of dv/dt = -v/tau, z = dt/tau (docs/physics.md; integrators' doc)."""
     if integrator == "paper":
         return 1.0 - z if update == "explicit" else 1.0 / (1.0 + z)
     return 1.0 - z + z * z / 2 if update == "explicit" else (1.0 - z / 2) / (1.0 + z / 2)
 
 
 def literal_beta(model, theta, slip, rho_g, mu_g, d):
-    """PHYSICS.md's closures as written there (powers, Re, MFiX's blend), in plain Python."""
+    """docs/physics.md's closures as written there (powers, Re, MFiX's blend), in plain Python."""
     eps = 1.0 - theta
     re = eps * rho_g * slip * d / mu_g
     stokes = 18.0 * mu_g * theta * eps ** -2.65 / d ** 2

@@ -1,4 +1,4 @@
-"""The gas references of parsph.physics.gas_references (PHYSICS.md, "The solid phase in a gas", refs. 1-4),
+"""The gas references of parsph.physics.gas_references (docs/physics.md, "The solid phase in a gas", refs. 1-4),
 each against an independent form: closed forms against the general roots and ODEs, the ODEs against
 quadratures in the other variable, the discrete solutions against literal loops, the columns against their
 mass, their balance by finite differences, a quadrature in theta and analytic.settling_equilibrium."""
@@ -174,7 +174,7 @@ def test_hindered_settling_balances_drag_and_weight(model):
 @pytest.mark.parametrize("ph", [WATER, AIR["wen_yu"], AIR["gidaspow"]], ids=["stokes", "wen_yu", "gidaspow"])
 def test_settling_relaxation_time(ph):
     """tau along the column: the steady state has |v| = tau (1 - rho_g/rho_s) |g| (drag/mass = C |v| with
-    C = 1/tau), to 1e-12; for Stokes tau = rho_s d^2 eps0^4.65 / (18 mu_g) (PHYSICS.md ref. 2)."""
+    C = 1/tau), to 1e-12; for Stokes tau = rho_s d^2 eps0^4.65 / (18 mu_g) (docs/physics.md ref. 2)."""
     for th in (0.05, 0.2, 0.4):
         tau = gr.settling_relaxation_time(th, ph)
         v = gr.hindered_settling_velocity(th, ph)

@@ -37,7 +37,7 @@ def lattice_theta(cfg):
 def reference_row(cfg):
     """Eqs. (3)-(5) for the fluid particles of one lattice row, by brute force.
 
-    Lattice of PHYSICS.md: x = (c + 1/2) dx for fluid c = 0..Nx-1, wall layers at
+    Lattice of docs/physics.md, "Walls": x = (c + 1/2) dx for fluid c = 0..Nx-1, wall layers at
     x = -(k + 1/2) dx and L + (k + 1/2) dx; y periodic. Walls hold the lattice's summed theta
     (:func:`lattice_theta`, the solver's choice), the moving plate has v_y = V_w, no-slip
     factor beta = min(1.5, 1 + d_j / d_i).

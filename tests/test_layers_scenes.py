@@ -1,4 +1,4 @@
-"""The layer scenes against PHYSICS.md's references 3 and 4 (parsph.physics.gas_references): short runs on one
+"""The layer scenes against docs/physics.md's references 3 and 4 (parsph.physics.gas_references): short runs on one
 rank, measured by parsph.studies.layers (the top: parsph.sph.projected.interface_height).
 
 - a layer at rest without gas keeps its mass below the hydrostatic profile's top and its top within a few h

@@ -1,7 +1,7 @@
 """parsph.physics.limits against independent references.
 
 - the sound speed of each pressure form: a finite difference of the effective pressure built from
-  closures.modulus, and the ratio c_eff / c = sqrt(1 + G_a ln10 theta) of PHYSICS.md;
+  closures.modulus, and the ratio c_eff / c = sqrt(1 + G_a ln10 theta) of docs/physics.md;
 - the linearised operator (lattice sums): the eigenvalues of a dense Jacobian of the package's own
   right-hand side (``Simulation.compute_rates``, finite differences) on a tiny periodic patch;
 - the per-mode limits: the spectral radius of the integrators' amplification matrices, written here
@@ -89,7 +89,7 @@ def test_sound_speed_is_the_derivative_of_the_effective_pressure(theta):
     for form, p in (("paper", p_paper), ("consistent", p_cons)):
         c2 = (p(theta + e) - p(theta - e)) / (2 * e) / RHO_S
         assert limits.sound_speed(theta, RHO_S, GA, GB, form) == pytest.approx(math.sqrt(c2), rel=1e-8)
-    # PHYSICS.md: c_eff / c = sqrt(1 + G_a ln10 theta): 2.84 at 0.35, 3.62 at 0.6, 3.89 at 0.7
+    # docs/physics.md: c_eff / c = sqrt(1 + G_a ln10 theta): 2.84 at 0.35, 3.62 at 0.6, 3.89 at 0.7
     ratio = limits.sound_speed(theta, RHO_S, GA, GB, "paper") / limits.sound_speed(theta, RHO_S, GA, GB, "consistent")
     assert ratio == pytest.approx(math.sqrt(1 + 8.76 * 2.302585092994046 * theta), rel=1e-12)
     expected = {0.35: 2.84, 0.6: 3.62, 0.7: 3.89}
@@ -106,7 +106,7 @@ def test_classical_limits_follow_their_formulas():
     assert lim["cfl"] == pytest.approx(0.25 * h / (c_eff + v), rel=1e-12)
     assert lim["viscous"] == pytest.approx(0.125 * h * h / (k * theta / RHO_S), rel=1e-12)
     assert lim["force"] == pytest.approx(0.25 * math.sqrt(h / a), rel=1e-12)
-    # PHYSICS.md, Table 1 (paper form): CFL 4.0e-5 s with c_eff, 5.2e-5 s with c
+    # docs/physics.md, "Stability limits", Table 1 (paper form): CFL 4.0e-5 s with c_eff, 5.2e-5 s with c
     assert lim["cfl"] == pytest.approx(4.0e-5, rel=0.02)
     assert limits.classical_limits(theta, v, material, lattice, limits.Terms(form="consistent"))["cfl"] == \
         pytest.approx(5.2e-5, rel=0.02)

@@ -52,7 +52,7 @@ def G(theta):
 
 
 def damping_07(k=1.0):
-    """2 nu / c_eff^2 at theta = 0.7: the paper integrator's acoustic limit in the continuum (PHYSICS.md)."""
+    """2 nu / c_eff^2 at theta = 0.7: the paper integrator's acoustic limit in the continuum (docs/physics.md)."""
     return 2 * k * 0.7 / RHO_S / (G(0.7) * (1 + 8.76 * LN10 * 0.7) / RHO_S)
 
 

@@ -1,5 +1,5 @@
 """What ``parsph check`` and ``parsph plot`` add for the layer scenes (``sedimentation``, ``fluidized_bed``;
-PHYSICS.md, "The solid phase in a gas", references 3 and 4). Serial: the output files alone (no MPI).
+docs/physics.md, "The solid phase in a gas", references 3 and 4). Serial: the output files alone (no MPI).
 
 - sedimentation: the interface (:func:`parsph.sph.projected.interface_height`, theta_bar = theta0 / 2, from
   each output's particles) against Kynch's line H0 + v0 t until the top meets the rising sediment (t_m), and

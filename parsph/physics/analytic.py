@@ -1,7 +1,7 @@
 """Analytic references.
 
 Transient plane Couette flow, Eq. (8) with the sum starting at n = 1
-(PHYSICS.md fixes the paper's n = 0 typo):
+(docs/physics.md, "The analytic solution, Eq. (8)", fixes the paper's n = 0 typo):
 
     v_y(x, t) = V_w x/L + sum_{n>=1} (2 V_w/(n pi)) (-1)^n sin(n pi x/L) exp(-n^2 pi^2 nu t/L^2)
 

@@ -1,4 +1,4 @@
-"""Constitutive closures of the solid phase (PHYSICS.md, after Eq. (5)).
+"""Constitutive closures of the solid phase (docs/physics.md, "The model: the solid phase, without drag").
 
 - elastic modulus G(theta) = 10^(a theta + b) Pa (Jayaswal 1991), with
   grad p_s = G(theta) grad theta;
@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 LN10 = math.log(10.0)
-G_A, G_B = 8.76, -1.183  # G = 10^(G_A theta + G_B) Pa (Jayaswal 1991; PHYSICS.md)
+G_A, G_B = 8.76, -1.183  # G = 10^(G_A theta + G_B) Pa (Jayaswal 1991; docs/physics.md)
 
 
 @njit(cache=True)

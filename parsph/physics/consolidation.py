@@ -1,10 +1,10 @@
 """A layer's whole transient in the column closure, inertia dropped: the 1-D sedimentation-consolidation
-equation (Buerger & Concha 1998; PHYSICS.md, "The solid phase in a gas", references 3 and 4), solved to
+equation (Buerger & Concha 1998; docs/physics.md, "The solid phase in a gas", references 3 and 4), solved to
 convergence by the method of lines.
 
-**The equation**, from the model of PHYSICS.md (x up from the floor, g = |g|, Delta = rho_s - rho_g,
+**The equation**, from the model of docs/physics.md (x up from the floor, g = |g|, Delta = rho_s - rho_g,
 eps = 1 - theta). Dropping the solids' inertia, the solids' momentum balance per unit volume with the gas
-pressure eliminated (PHYSICS.md's per-particle force times rho_s theta) is
+pressure eliminated (docs/physics.md's per-particle force times rho_s theta) is
 
     0 = beta (u_g - v) / eps - dp_s/dx - theta Delta g,
 

@@ -1,4 +1,4 @@
-"""The gas's drag on the solids (PHYSICS.md, "The solid phase in a gas"): the interphase coefficient beta.
+"""The gas's drag on the solids (docs/physics.md, "Drag closures"): the interphase coefficient beta.
 
 The solids feel ``+beta (u_g - v)`` per unit volume; ``slip`` below is |u_g - v| [m/s],
 ``theta`` the solids' volume fraction, eps = 1 - theta, ``d`` the grain diameter:
@@ -46,7 +46,7 @@ def rate(model, theta, slip2, rho_s, rho_g, mu_g, d):
     Branch-free (both Wen & Yu branches, then a select) on :mod:`parsph.physics.fastmath`'s log, exp and
     atan, so that a loop over particles calling it with a constant ``model`` runs on vector registers
     (:func:`parsph.sph.equations.drag_rates`); slip2 = 0 gives Re^0.687 = exp(-inf) = 0. Within 1e-15 of
-    PHYSICS.md's formulas written with powers (tests/test_drag.py asks 1e-13)."""
+    docs/physics.md's formulas written with powers (tests/test_drag.py asks 1e-13)."""
     eps = 1.0 - theta
     le = fm.log(eps)
     a = 18.0 * mu_g / (rho_s * d * d)

@@ -1,11 +1,11 @@
-"""Exact references for the solid phase in a gas (PHYSICS.md, "The solid phase in a gas", references 1-4).
+"""Exact references for the solid phase in a gas (docs/physics.md, "The solid phase in a gas", references 1-4).
 
 One place each; SI units throughout. The two phases are given as :class:`Phases` (rho_s, rho_g [kg/m^3],
 mu_g [Pa s], the grain diameter d [m], |g| [m/s^2] and the drag closure of :mod:`parsph.physics.drag`).
 eps = 1 - theta is the gas fraction, u_t = (rho_s - rho_g) |g| d^2 / (18 mu_g) Stokes's terminal velocity.
 The solids feel beta (u_g - v) / (rho_s theta eps) per unit mass besides gravity with buoyancy and the
 stress; in a column fed at superficial velocity U along e (opposite to gravity) the slip along e is
-(U - v.e) / eps (PHYSICS.md, "The gas velocity").
+(U - v.e) / eps (docs/physics.md, "The gas velocity").
 
 1. Drag relaxation in a stream u_g (no gravity): :func:`relaxation_velocity` (Stokes, exact),
    :func:`relaxation_discrete` (Eq. (7) and the midpoint scheme, explicit or implicit drag, exact for a

@@ -1,4 +1,4 @@
-"""Table 1 of the paper (PHYSICS.md): the transient plane Couette flow, in SI units.
+"""Table 1 of the paper (docs/physics.md, "Table 1"): the transient plane Couette flow, in SI units.
 
 The numbers the studies and the case builders (:mod:`parsph.studies.builders`)
 read, so that none of them copies one; ``run/couette_paper.toml`` is the same

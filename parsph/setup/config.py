@@ -49,7 +49,7 @@ AIR_RHO, AIR_MU = 1.2, 1.8e-5  # the gas's defaults: air at 20 C [kg/m^3], [Pa s
 
 @dataclass(frozen=True)
 class Gas:
-    """The gas the solids are in (PHYSICS.md, "The solid phase in a gas"): its closure and the gas velocity.
+    """The gas the solids are in (docs/physics.md, "The solid phase in a gas"): its closure and the gas velocity.
 
     A stream has the constant velocity ``velocity``; a column is fed at superficial velocity ``U`` along
     the axis ``axis`` opposite to gravity (``sign``: +1 where that is +axis), its gas velocity per
@@ -165,7 +165,7 @@ class RunConfig:
 
     def drag_coefficient(self, theta, slip):
         """The largest drag coefficient C [1/s] of a particle at (theta, |u_g - v| = slip): 1/tau with tau
-        of PHYSICS.md (along a column's axis: rho_s theta eps^2 / beta); 0 without a gas."""
+        of docs/physics.md (along a column's axis: rho_s theta eps^2 / beta); 0 without a gas."""
         gas = self.gas
         if gas is None:
             return 0.0

@@ -43,7 +43,7 @@ def hold_wall_density(cfg, kernel, ps):
 
 
 def body_force(cfg):
-    """g as a 3-vector; in a gas, with buoyancy: g (1 - rho_g / rho_s) (PHYSICS.md)."""
+    """g as a 3-vector; in a gas, with buoyancy: g (1 - rho_g / rho_s) (docs/physics.md)."""
     g = np.zeros(3)
     g[:cfg.dim] = cfg.g
     if cfg.gas is not None:

@@ -421,7 +421,7 @@ def _finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, d
                 acc[k, 2] = 0.0
 
 
-# ---- the gas's drag (PHYSICS.md, "The solid phase in a gas") -------------------------------------------
+# ---- the gas's drag (docs/physics.md, "The solid phase in a gas") --------------------------------------
 @njit(cache=True, inline="always")
 def stream_slip2(k, vf, u0, u1, u2, three_d):
     """|u_g - v_k|^2 in a stream u_g = (u0, u1, u2): the sum of (u_d - v_k,d)^2 over the components d.
@@ -439,7 +439,7 @@ def stream_slip2(k, vf, u0, u1, u2, three_d):
 
 @njit(cache=True, inline="always")
 def column_slip2(k, vf, theta, axis, sign, U, three_d):
-    """|u_g,k - v_k|^2 in a column (PHYSICS.md): u_g.e = (U - theta v.e) / eps along e = sign * unit(axis), so
+    """|u_g,k - v_k|^2 in a column (docs/physics.md): u_g.e = (U - theta v.e) / eps along e = sign * unit(axis), so
     the slip there is (sign U - v_k,axis) / eps, and -v_k,d across. Branch-free: each component a select;
     ``vf`` as in :func:`stream_slip2`."""
     dim = 3 if len(three_d) else 2

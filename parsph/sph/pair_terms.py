@@ -10,7 +10,7 @@ theta and 1/rho_bar, particle i gets m_j (P r_ij + mu beta V v_ij) from j:
     P = -(pr_i + pr_j) f                                           (consistent: p = G / (G_a ln 10))
     V = (theta_i + theta_j) / (rho_bar_i rho_bar_j) f               (Morris et al. 1997)
     mu = k theta_i (the paper), or k (theta_i + theta_j) / 2 (numerics.viscosity_form = "symmetric"),
-    beta = min(beta_max, 1 + d_wall / d_fluid) where j is a wall particle (PHYSICS.md, "Walls").
+    beta = min(beta_max, 1 + d_wall / d_fluid) where j is a wall particle (docs/physics.md, "Walls").
 
 Scalars only: a helper that takes the particle arrays makes numba count references to them at every call
 and keeps LLVM from hoisting the loads (the 7x of equations.particle_factors_serial's note); inlined with

@@ -3,7 +3,7 @@ speed against theta0, the stability of each drag update across dt/tau, the error
 cost of a step with drag against one without.
 
 The box is uniform (Eq. (5)'s sums vanish but for round-off), so each run has an exact reference
-(PHYSICS.md's references 1 and 2, :mod:`parsph.physics.gas_references`) and measures the time
+(docs/physics.md's references 1 and 2, :mod:`parsph.physics.gas_references`) and measures the time
 integration of the drag alone. Glass (2000 kg/m^3) in water; tau is set through the grain diameter.
 """
 import math

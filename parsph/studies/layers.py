@@ -1,4 +1,4 @@
-"""Layers under clear gas (PHYSICS.md, "The solid phase in a gas", references 3 and 4): runs of the
+"""Layers under clear gas (docs/physics.md, "The solid phase in a gas", references 3 and 4): runs of the
 ``sedimentation`` and ``fluidized_bed`` scenes measured against their references, for the tests
 (tests/test_layers_scenes.py), the study (scripts/layers_study.py) and docs/validation.md.
 

@@ -1,4 +1,4 @@
-"""A fluidised bed (PHYSICS.md, "The solid phase in a gas", reference 3): a layer theta0 of height H0
+"""A fluidised bed (docs/physics.md, "The solid phase in a gas", reference 3): a layer theta0 of height H0
 (``scene.height``) on the floor x = 0, gas fed through the floor at superficial velocity U > 0
 (``gas.flow = "column"``), clear gas above, a lid at x = L. Above minimum fluidisation the bed expands to
 its steady column and stays there. The layer's parts are in :mod:`.layer`.

@@ -15,7 +15,7 @@ pressure in Eq. (5). With the mass of theta0, a sediment packed 2-5x denser than
 of half its density and be squeezed into it (the settling scene's note on held walls). The lid's walls hold
 theta0 and never meet the layer in a run that fits under the lid.
 
-The references are PHYSICS.md's 3 and 4 (:mod:`parsph.physics.gas_references`), built once per run's
+The references are docs/physics.md's 3 and 4 (:mod:`parsph.physics.gas_references`), built once per run's
 values (cached).
 """
 from functools import lru_cache

@@ -5,13 +5,13 @@ the lattice; ``terms.pressure = true`` adds the pressure term for
 conservation checks). Reference: v_y = U sin(k x) exp(-nu k^2 t), k = 2 pi / L.
 
 In a gas (``[gas]``) with Stokes drag the box stays uniform in theta, so the
-drag coefficient C of v_y (PHYSICS.md: 1/tau) is one number and the flow is
+drag coefficient C of v_y (docs/physics.md: 1/tau) is one number and the flow is
 linear: the mean relaxes to v_inf = w + g_y (1 - rho_g/rho_s) / C (w: the gas's
 target velocity along y) while the wave decays with nu k^2 + C:
 
     v_y = v_inf (1 - exp(-C t)) + U sin(k x) exp(-(nu k^2 + C) t)
 
-(PHYSICS.md's references 1 and 2, the drag relaxation and hindered settling,
+(docs/physics.md's references 1 and 2, the drag relaxation and hindered settling,
 where the wave is absent). Other closures make C depend on the slip: no
 closed form, and the scene has no reference there.
 """

@@ -1,4 +1,4 @@
-"""Batch sedimentation (PHYSICS.md, "The solid phase in a gas", reference 4; Kynch 1952, MFiX's PIC04): a
+"""Batch sedimentation (docs/physics.md, "The solid phase in a gas", reference 4; Kynch 1952, MFiX's PIC04): a
 uniform layer theta0 of height H0 (``scene.height``) on the floor x = 0, clear gas above, a lid at x = L, the
 gas a closed column (``gas.flow = "column"``, U = 0) or absent (the layer then falls under gravity alone to
 the same hydrostatic end state). The layer's parts are in :mod:`.layer`.

@@ -19,7 +19,7 @@ def particles(cfg, y_lo, y_hi):
 
 
 def _weight(cfg):
-    """The column's gravity along -x [m/s^2], with buoyancy in a gas (PHYSICS.md)."""
+    """The column's gravity along -x [m/s^2], with buoyancy in a gas (docs/physics.md, "The solid phase in a gas")."""
     return -cfg.g[0] * (1.0 - cfg.gas.rho / cfg.rho_s if cfg.gas is not None else 1.0)
 
 
@@ -33,7 +33,7 @@ def reference(cfg, x, t):
 
 
 def wall_theta(cfg, x):
-    """Walls hold the equilibrium column continued beyond the plates (PHYSICS.md's "mirror" option).
+    """Walls hold the equilibrium column continued beyond the plates (docs/physics.md, "Walls": a mirror).
 
     The balance is the one the chosen pressure form converges to (the paper's
     form: grad(G theta); the consistent form: G grad theta).
