@@ -352,9 +352,9 @@ def _solved_grid(gas, lat):
     :data:`K_MAX_FACTOR` K(theta0) where none is given."""
     Lx, Ly, dx = lat["L"], lat["Ly"], lat["dx"]
     cell = gas.cell or CELL_DX * dx
-    if not cell <= min(Lx, Ly) / 2.0 * (1.0 + 1e-12):
-        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than 2 cells across the box "
-                          f"({Lx:g} m x {Ly:g} m: domain.L x domain.Ly)")
+    if not (cell <= Lx / 2.0 * (1.0 + 1e-12) and cell <= Ly / 3.0 * (1.0 + 1e-12)):
+        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than 2 cells along x or 3 along the periodic y "
+                          f"(the box is {Lx:g} m x {Ly:g} m: domain.L x domain.Ly)")
     if not (Lx / cell <= 4096 and Ly / cell <= 4096):
         raise ConfigError("gas.cell", f"{cell:g} m makes more than 4096 cells along an axis (the solve is one "
                           "rank's sparse direct solve)")

@@ -35,7 +35,8 @@ class GasStage:
         self.K_max = gas.K_max or K_MAX_FACTOR * float(
             permeability(np.array([cfg.theta0]), 0.0, gas.model, gas.rho, gas.mu, gas.d, np.inf)[0])
         # the floor fed at U, the lid open (p' = 0); y periodic
-        self.x_sides = (darcy.Side("flux", np.full(g.ny, gas.U)), darcy.Side("pressure", np.zeros(g.ny)))
+        self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", np.full(g.ny, gas.U)),
+                                                          darcy.Side("pressure", np.zeros(g.ny))), None)
         self.every = gas.solve_every
         self.solved_at = None
         self.solves = 0
@@ -63,7 +64,7 @@ class GasStage:
             slip = 0.0
             for _ in range(1 if gas.model == STOKES else 2):  # the slip-dependent closures: K at the slip of a first solve
                 K = permeability(theta, slip, gas.model, gas.rho, gas.mu, gas.d, self.K_max)
-                sol = darcy.solve(K, V, g.hx, g.hy, self.x_sides, None)
+                sol = self.darcy.solve(K, V)
                 j = sol.centred()
                 slip = np.sqrt(((j - V) ** 2).sum(axis=-1)) / (1.0 - np.minimum(theta, 0.95))
         except darcy.SolveFailed as e:

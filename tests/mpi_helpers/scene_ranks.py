@@ -51,6 +51,13 @@ CASES = {
                                              "scene.height=0.002", "numerics.dt=5e-5"], 0.1, 80),
     "fluidized_bed": ("fluidized_bed.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
                                              "scene.height=0.0016", "numerics.dt=5e-5"], 0.1, 80),
+    # the same in the solved gas: the deposits summed over the ranks, the pressure solved on every rank
+    "sedimentation_solved": ("sedimentation.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
+                                                    "scene.height=0.002", "numerics.dt=5e-5", 'gas.flow="solved"'],
+                             0.1, 80),
+    "fluidized_bed_solved": ("fluidized_bed.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
+                                                    "scene.height=0.0016", "numerics.dt=5e-5", 'gas.flow="solved"'],
+                             0.1, 80),
 }
 FIELDS = ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")
 

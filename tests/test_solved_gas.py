@@ -1,0 +1,276 @@
+"""The solved gas (docs/physics.md, "The solved gas"; docs/validation.md, "The solved gas"):
+
+- reference 6, Darcy flow past a circular inclusion: the closed form checked as a solution (Laplace's
+  equation, p' and the normal flux continuous at r = a, the far field), then the grid solve against it: the
+  flux through the inclusion within 2% of 2 kappa U / (1 + kappa) for kappa = 1e3 and 0.1 with a on 16 cells,
+  first order over three grids;
+- the solve's finite volumes against independent forms: layers in series (p' at the floor = U times the sum
+  of the resistances), no divergence on a random field, the banded Cholesky against SuperLU;
+- the deposit: the particles' volume conserved, the same bits in any particle order, the interpolation the
+  deposit's transpose (the same weights both ways), a linear field interpolated exactly;
+- K = eps^2 / beta against Stokes's closed form d^2 eps^4.65 / (18 mu theta), and its cap;
+- reference 5, the column reduction: run/sedimentation.toml and run/fluidized_bed.toml solved on the grid
+  against their column closure runs (the heights below which 5%..95% of the mass lies within 0.2% of H0 at
+  every output), and fine grains at dt/tau >= 1e3;
+- the new run-file keys' one-line errors.
+"""
+import math
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from parsph.errors import ConfigError
+from parsph.gas import darcy, deposit
+from parsph.gas.permeability import permeability
+from parsph.physics import inclusion
+from parsph.physics.drag import STOKES
+from parsph.setup import config
+from parsph.setup.scenes import layer
+from parsph.simulation.solver import Simulation
+from parsph.sph.particles import FLUID
+from parsph.sph.profiles import mass_quantiles
+from parsph.studies import layers
+
+
+# ---- reference 6 --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kappa", [1e3, 0.1, 1.0])
+def test_inclusion_closed_form_solves_darcy(kappa):
+    a, K, U = 0.3, 2.0, 0.7
+    p = lambda x, y: inclusion.pressure(x, y, a, kappa, K, U)
+    rng = np.random.default_rng(3)
+    h = 1e-4
+    for r in (0.5 * a, 1.7 * a, 4.0 * a):  # Laplace's equation inside and outside (5-point stencil)
+        phi = rng.uniform(0, 2 * math.pi, 8)
+        x, y = r * np.cos(phi), r * np.sin(phi)
+        lap = (p(x + h, y) + p(x - h, y) + p(x, y + h) + p(x, y - h) - 4 * p(x, y)) / h ** 2
+        assert np.all(np.abs(lap) < 1e-4 * U / K / a)
+    phi = np.linspace(0.1, 3.0, 7)
+    e = 1e-7
+    inner, outer = p((a - e) * np.cos(phi), (a - e) * np.sin(phi)), p((a + e) * np.cos(phi), (a + e) * np.sin(phi))
+    assert np.allclose(inner, outer, atol=1e-6 * U / K * a)
+    # the normal flux -K_local dp'/dr on both sides of r = a
+    d = 1e-5
+
+    def radial(r, Kl):
+        return -Kl * (p((r + d) * np.cos(phi), (r + d) * np.sin(phi)) - p((r - d) * np.cos(phi), (r - d) * np.sin(phi))) / (2 * d)
+    assert np.allclose(radial(a - 3 * d, kappa * K), radial(a + 3 * d, K), rtol=1e-3, atol=1e-9)
+    # inside: the uniform flux; far away: U
+    assert radial(0.5 * a, kappa * K)[0] == pytest.approx(inclusion.inside_flux(kappa, U) * math.cos(phi[0]), rel=1e-6)
+    far = -K * (p(1e3 * a + d, 0.0) - p(1e3 * a - d, 0.0)) / (2 * d)
+    assert far == pytest.approx(U, rel=1e-5)
+
+
+def inclusion_flux_error(cells_per_radius, kappa, box=4.0):
+    """The grid's flux through the inclusion (the face row on its diameter across the flow) against
+    2 kappa U / (1 + kappa): a box of 2 box a per side, K by the cell centre's side of the circle, the exact
+    p' on the box's sides (the box's effect removed)."""
+    a, U = 1.0, 1.0
+    h = a / cells_per_radius
+    n = int(round(2 * box * a / h))
+    B = n * h / 2
+    xc = -B + (np.arange(n) + 0.5) * h
+    X, Y = np.meshgrid(xc, xc, indexing="ij")
+    K = np.where(X ** 2 + Y ** 2 < a * a, kappa, 1.0)
+    exact = lambda x, y: inclusion.pressure(x, y, a, kappa, 1.0, U)
+    sol = darcy.solve(K, np.zeros((n, n, 2)), h, h,
+                      (darcy.Side("pressure", exact(-B, xc)), darcy.Side("pressure", exact(B, xc))),
+                      (darcy.Side("pressure", exact(xc, -B)), darcy.Side("pressure", exact(xc, B))))
+    lo, hi = np.clip(xc - h / 2, -a, a), np.clip(xc + h / 2, -a, a)
+    Q = np.sum(sol.jx[n // 2] * (hi - lo))
+    return Q / (2 * a) / inclusion.inside_flux(kappa, U) - 1.0
+
+
+@pytest.mark.parametrize("kappa", [1e3, 0.1])
+def test_grid_solve_against_the_inclusion(kappa):
+    assert abs(inclusion_flux_error(16, kappa)) < 0.02
+
+
+def test_inclusion_flux_converges_at_first_order():
+    errs = [abs(inclusion_flux_error(n, 1e3)) for n in (8, 16, 32)]
+    orders = [math.log2(errs[i] / errs[i + 1]) for i in range(2)]
+    assert all(0.7 < q < 1.6 for q in orders), (errs, orders)
+
+
+# ---- the finite volumes --------------------------------------------------------------------------------
+def test_layers_in_series():
+    """K varying along x alone, the floor fed at U, p' = 0 at the top: the flux is U through every face and p'
+    at a cell is U times the resistances above it: half its own cell, then each face's h / K_f, then the
+    top half-cell h / (2 K)."""
+    rng = np.random.default_rng(5)
+    nx, ny, hx, hy, U = 9, 4, 0.3, 0.2, 0.05
+    Kx = rng.uniform(0.1, 3.0, nx)
+    K = np.repeat(Kx[:, None], ny, axis=1)
+    sol = darcy.solve(K, np.zeros((nx, ny, 2)), hx, hy,
+                      (darcy.Side("flux", U), darcy.Side("pressure", 0.0)), None)
+    assert np.allclose(sol.jx, U, rtol=1e-12)
+    assert np.allclose(sol.jy, 0.0, atol=1e-14)
+    Kf = 2 * Kx[:-1] * Kx[1:] / (Kx[:-1] + Kx[1:])
+    above = np.array([sum(hx / Kf[i:]) + hx / (2 * Kx[-1]) for i in range(nx)])
+    assert np.allclose(sol.p[:, 0], U * above, rtol=1e-12)
+
+
+def test_random_fields_have_no_divergence_and_two_solvers_agree():
+    rng = np.random.default_rng(11)
+    nx, ny, hx, hy = 12, 7, 0.1, 0.15
+    K = rng.uniform(0.01, 10.0, (nx, ny))
+    V = rng.normal(size=(nx, ny, 2))
+    sides = (darcy.Side("flux", rng.uniform(0, 1, ny)), darcy.Side("pressure", 0.0))
+    sol = darcy.solve(K, V, hx, hy, sides, None)  # banded Cholesky
+    div = (sol.jx[1:] - sol.jx[:-1]) / hx + (sol.jy[:, 1:] - sol.jy[:, :-1]) / hy
+    assert np.abs(div).max() < 1e-11 * np.abs(V).max() / hx
+    lu = darcy.Darcy(nx, ny, hx, hy, sides, None)
+    lu.banded = False  # the same matrix through SuperLU
+    other = lu.solve(K, V)
+    assert np.allclose(sol.p, other.p, rtol=1e-10, atol=1e-12 * np.abs(sol.p).max())
+
+
+def test_every_side_fed_pins_the_constant():
+    """Fed at U through the floor and out through a top fed at U too: p' is defined up to a constant, the
+    first cell holds 0, and the flux is U everywhere."""
+    K = np.ones((5, 4))
+    sol = darcy.solve(K, np.zeros((5, 4, 2)), 1.0, 1.0, (darcy.Side("flux", 2.0), darcy.Side("flux", 2.0)), None)
+    assert sol.p[0, 0] == pytest.approx(0.0, abs=1e-12)
+    assert np.allclose(sol.jx, 2.0)
+
+
+# ---- the deposit and the interpolation -----------------------------------------------------------------
+def _particles(n, Lx, Ly, seed=2):
+    rng = np.random.default_rng(seed)
+    pos = np.column_stack([rng.uniform(-0.05 * Lx, 1.05 * Lx, n), rng.uniform(-0.3 * Ly, 1.3 * Ly, n)])
+    vel = rng.normal(size=(n, 2))
+    mass = rng.uniform(0.5, 1.5, n) * 1e-3
+    kind = np.where(rng.random(n) < 0.9, FLUID, 1).astype(np.int64)
+    return pos, vel, mass, kind
+
+
+def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0):
+    out = np.zeros((3, nx, ny), np.int64)
+    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, out)
+    return out
+
+
+def test_deposit_conserves_volume_and_momentum_in_any_order():
+    nx, ny, Lx, Ly, rho_s = 7, 5, 0.7, 0.4, 2000.0
+    pos, vel, mass, kind = _particles(400, Lx, Ly)
+    sums = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)
+    fluid = kind == FLUID
+    area = Lx / nx * Ly / ny
+    rounding = 4 * fluid.sum() * 0.5 / deposit.SCALE * area  # each of the 4 terms a particle adds rounds once
+    assert abs(sums[0].sum() / deposit.SCALE * area - (mass[fluid] / rho_s).sum()) <= rounding
+    for c in (0, 1):
+        assert abs(sums[1 + c].sum() / deposit.SCALE * area - (mass[fluid] / rho_s * vel[fluid, c]).sum()) <= rounding
+    perm = np.random.default_rng(9).permutation(len(mass))
+    again = _deposit(pos[perm], vel[perm], mass[perm], kind[perm], nx, ny, Lx, Ly)
+    assert np.array_equal(sums, again)  # integers: the same bits in any order
+    half = len(mass) // 2  # two "ranks" summed
+    parts = _deposit(pos[:half], vel[:half], mass[:half], kind[:half], nx, ny, Lx, Ly) + \
+        _deposit(pos[half:], vel[half:], mass[half:], kind[half:], nx, ny, Lx, Ly)
+    assert np.array_equal(sums, parts)
+
+
+def test_interpolation_is_the_deposits_transpose():
+    """sum_i vol_i f(x_i) = sum_c f_c theta_c A: the grid's force on the particles is the reaction of what
+    they put on it (the wall folding and the periodic wrap included)."""
+    nx, ny, Lx, Ly, rho_s = 6, 5, 0.6, 0.5, 2000.0
+    pos, vel, mass, kind = _particles(300, Lx, Ly, seed=4)
+    f = np.random.default_rng(1).normal(size=(nx, ny, 1))
+    at = np.zeros((len(mass), 1))
+    deposit.interpolate(pos, kind, len(mass), f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, at)
+    theta = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)[0] / deposit.SCALE
+    fluid = kind == FLUID
+    lhs = (mass[fluid] / rho_s * at[fluid, 0]).sum()
+    rhs = (f[:, :, 0] * theta).sum() * (Lx / nx) * (Ly / ny)
+    assert lhs == pytest.approx(rhs, rel=1e-10)
+    assert np.all(at[~fluid] == 0.0)
+
+
+def test_linear_fields_are_interpolated_exactly_inside():
+    nx, ny, Lx, Ly = 8, 6, 0.8, 0.6
+    xc, yc = (np.arange(nx) + 0.5) * Lx / nx, (np.arange(ny) + 0.5) * Ly / ny
+    f = (2.0 * xc[:, None] - 3.0 + 0.0 * yc[None, :])[:, :, None]
+    rng = np.random.default_rng(0)
+    pos = np.column_stack([rng.uniform(xc[0], xc[-1], 50), rng.uniform(0, Ly, 50)])
+    at = np.zeros((50, 1))
+    deposit.interpolate(pos, np.zeros(50, np.int64), 50, f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, at)
+    assert np.allclose(at[:, 0], 2.0 * pos[:, 0] - 3.0, rtol=0, atol=1e-12)
+
+
+def test_permeability_is_stokes_closed_form_and_capped():
+    theta = np.array([0.05, 0.2, 0.45, 0.6])
+    mu, d = 1e-3, 3e-4
+    K = permeability(theta, 0.0, STOKES, 1000.0, mu, d, np.inf)
+    assert np.allclose(K, d * d * (1 - theta) ** 4.65 / (18 * mu * theta), rtol=1e-12)
+    capped = permeability(np.array([0.0, 1e-9, 0.3]), 0.0, STOKES, 1000.0, mu, d, 1e-3)
+    assert capped[0] == capped[1] == 1e-3 and capped[2] < 1e-3
+
+
+# ---- reference 5: the column reduction -------------------------------------------------------------------
+def quantile_runs(path, times, extra=()):
+    def measure(sim):
+        ps = sim.ps
+        f = ps.kind[:ps.n_own] == FLUID
+        return {"q": mass_quantiles(ps.pos[:ps.n_own, 0][f], ps.mass[:ps.n_own][f]),
+                "finite": bool(np.isfinite(ps.vel[:ps.n_own]).all())}
+    out = {}
+    for flow in ("column", "solved"):
+        out[flow] = layers.run(path, [f'gas.flow="{flow}"', *extra], times=times, measure=measure)
+    return out
+
+
+@pytest.mark.parametrize("path, times", [(layers.SEDIMENTATION, [0.1, 0.3, 0.6]),
+                                         (layers.BED, [0.25, 0.5, 1.0])])
+def test_column_reduction(path, times):
+    runs = quantile_runs(path, times)
+    H0 = layer.layer_height(runs["column"].cfg)
+    assert len(runs["solved"].frames) == len(times)
+    for a, b in zip(runs["column"].frames, runs["solved"].frames):
+        assert a["t"] == b["t"]
+        assert np.abs(a["q"] - b["q"]).max() < 2e-3 * H0, (a, b)
+    moved = np.abs(runs["column"].frames[-1]["q"] - runs["column"].frames[0]["q"]).max()
+    assert moved > 0.05 * H0  # the layer moved: the comparison is not of two resting states
+
+
+def test_column_reduction_at_large_dt_over_tau():
+    """Grains of 5 um in water (the drag's time tau = rho_s theta eps^2 / beta about 1e-6 s), the implicit drag
+    at the step of the other limits: dt / tau >= 1e3, finite, and the quantiles of the column's run."""
+    extra = ["material.d=5e-6", "output.snapshots=false"]
+    cfg = layers.load(layers.SEDIMENTATION, [*extra, 'gas.flow="solved"'])
+    eps = 1 - cfg.theta0
+    tau = cfg.rho_s * cfg.gas.d ** 2 * eps ** 4.65 / (18 * cfg.gas.mu)  # Stokes, along the column
+    assert cfg.dt / tau >= 1e3
+    runs = quantile_runs(layers.SEDIMENTATION, [0.02, 0.05], extra)
+    H0 = layer.layer_height(runs["column"].cfg)
+    for a, b in zip(runs["column"].frames, runs["solved"].frames):
+        assert b["finite"]
+        assert np.abs(a["q"] - b["q"]).max() < 2e-3 * H0
+
+
+# ---- the keys ----------------------------------------------------------------------------------------------
+BED_TOML = (layers.BED.read_text())
+
+
+@pytest.mark.parametrize("sets, key", [
+    (['gas.flow="column"', "gas.cell=0.001"], "gas.cell"),
+    (['gas.flow="column"', "gas.K_max=1.0"], "gas.K_max"),
+    (['gas.flow="column"', "gas.solve_every=2"], "gas.solve_every"),
+    (['gas.flow="solved"', "gas.cell=0.002"], "gas.cell"),        # Ly = 2.4 mm: fewer than 3 cells along y
+    (['gas.flow="solved"', "gas.cell=-1.0"], "gas.cell"),
+    (['gas.flow="solved"', "gas.solve_every=0"], "gas.solve_every"),
+    (['gas.flow="solved"', "gas.K_max=0.0"], "gas.K_max"),
+    (['gas.flow="solved"', "scene.dim=3", "body_force.g=[-9.81, 0.0, 0.0]"], "scene.dim"),
+    (['gas.flow="solved"', "body_force.g=[9.81, 0.0]"], "body_force.g"),
+])
+def test_solved_gas_keys_are_checked(sets, key):
+    with pytest.raises(ConfigError) as e:
+        config.loads(BED_TOML, sets)
+    assert e.value.key == key
+    assert "\n" not in str(e.value)
+
+
+def test_solve_every_reuses_the_flux_between_solves():
+    cfg = layers.load(layers.BED, ['gas.flow="solved"', "gas.solve_every=5", "output.t_end=0.01",
+                                   "output.times=[0.01]", "output.snapshots=false"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    sim.take_steps(20)
+    assert sim.gas.solves == 5  # steps 0, 5, 10, 15 and 20's state
