@@ -1,7 +1,7 @@
 """The ``parsph`` command: run, check, converge, plot.
 
     parsph run CONFIG [--set section.key=value ...] [--out DIR] [--force] [--restart OUTPUT] [--quiet]
-    parsph check OUTPUT [--tol 0.02]
+    parsph check OUTPUT [--tol TOL]
     parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
     parsph plot OUTPUT [--png FILE] [--particles [--field vy|vx|theta] [--times T ...]]
 
@@ -45,7 +45,11 @@ def build_parser():
                         "ranks x threads should not exceed the cores)")
     c = sub.add_parser("check", help="print the error table of a run; exit 1 above --tol")
     c.add_argument("output", help="output directory or file")
-    c.add_argument("--tol", type=float, default=0.02, help="largest max error / V_w accepted (default 0.02)")
+    c.add_argument("--tol", type=float, default=None,
+                   help="the largest error accepted: of the error table's max error (relative to the scene's "
+                        "scale; default 0.02); for a layer scene (sedimentation, fluidized_bed), of both its "
+                        "measures: the heights of 5-95%% of the mass against the transient's, relative to H0 "
+                        "(default 0.03), and the interior theta against the end state's, relative (default 0.02)")
     cv = sub.add_parser("converge", help="run at several resolutions; estimated error and cost of each "
                                          "(under mpirun for several ranks)")
     cv.add_argument("config", help="run file (TOML): the coarsest level")

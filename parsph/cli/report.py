@@ -7,6 +7,8 @@ import sys
 from parsph.errors import ConfigError, UsageError
 from .exits import EXIT_ERROR
 
+DEFAULT_TOL = 0.02   # check's tolerance of the error table's max error (layer scenes: layer_report's own)
+
 
 def _decaying(p):
     """The run of a decaying flow (its scene has a current_scale), else None."""
@@ -33,6 +35,10 @@ def print_table(path, tol=None):
     if not np.isfinite(np.asarray(p[key + "_exact"], float)).any():
         print(f"no reference for {field} in this run (its scene gives none here): no error table")
         return None
+    from .layer_report import layer_run
+    if layer_run(p) is not None:
+        print("for information, not the verdict: the pointwise table (its reference steps where the layer is smooth:"
+              " Kynch's fronts, the end state while the layer still moves; the layer check below judges)")
     cfg = _decaying(p)
     if cfg is None:
         scale = p["attrs"].get("error_scale", p["attrs"].get("V_w", 1.0))
@@ -41,8 +47,8 @@ def print_table(path, tol=None):
         rows = [(t, emax, erms, "") for t, emax, erms in zip(p["time"], p["err_max"], p["err_rms"])]
     else:
         initial = cfg.error_scale(0.0)
-        print(f"errors of {field} against the reference, relative to the amplitude left at each time "
-              f"(initially {initial:.4g})")
+        print(f"errors of {field} against the reference, relative to the scene's amplitude at each time "
+              f"(RunConfig.error_scale; initially {initial:.4g})")
         print(f"{'t [s]':>10} {'amplitude':>12} {'max error':>12} {'rms error':>12} {'max / initial':>13}")
         rows = []
         for t, f, fe in zip(p["time"], p[key], p[key + "_exact"]):
@@ -63,27 +69,54 @@ def _read(path, fn):
         raise UsageError(f"cannot read output {path}: {e}") from None
 
 
-def print_layer(path):
-    """A layer scene's few lines beyond the error table (:func:`.layer_report.summary`); nothing for others."""
+def print_layer(path, tol=None):
+    """A layer scene's check (:func:`.layer_report.report`): print its table, return its Verdict; None for other
+    scenes. ``tol``: both the heights' (of H0) and the interior theta's tolerance (default each its own)."""
     from parsph.output import read_profile
     from . import layer_report
     p = read_profile(path)
     cfg = layer_report.layer_run(p)
-    if cfg is not None:
-        for line in layer_report.summary(path, p, cfg):
-            print(line)
+    if cfg is None:
+        return None
+    tols = (layer_report.TOL_HEIGHTS, layer_report.TOL_THETA) if tol is None else (tol, tol)
+    lines, verdict = layer_report.report(path, p, cfg, *tols)
+    for line in lines:
+        print(line)
+    return verdict
+
+
+def print_outputs(path, tol=None, table_tol=None):
+    """What ``parsph run`` ends with and ``parsph check`` prints: the error table (its rows flagged above
+    ``table_tol``; for a layer scene it is information, never flagged) and a layer's check (``tol``:
+    :func:`print_layer`). Returns (the table's worst max error or None, the layer's Verdict or None)."""
+    from parsph.output import read_profile
+    from . import layer_report
+    layer = _read(path, lambda q: layer_report.layer_run(read_profile(q))) is not None
+    worst = _read(path, lambda q: print_table(q, None if layer else table_tol))
+    return worst, _read(path, lambda q: print_layer(q, tol))
 
 
 def cmd_check(args):
-    worst = _read(args.output, lambda p: print_table(p, args.tol))
-    _read(args.output, print_layer)
+    tol = DEFAULT_TOL if args.tol is None else args.tol
+    worst, verdict = print_outputs(args.output, args.tol, tol)
+    if verdict is not None:
+        if not verdict.ok:
+            for why in verdict.failures():
+                print(f"parsph check: {why}", file=sys.stderr)
+            return EXIT_ERROR
+        if verdict.judged:
+            print("parsph check: the layer's heights and interior theta within their tolerances")
+        else:
+            print("parsph check: nothing to judge (no output with particles, and the layer in transit at every "
+                  "output)")
+        return 0
     if worst is None:
         print("parsph check: nothing to check against")
         return 0
-    if not worst <= args.tol:
-        print(f"parsph check: max error {worst:.3e} above tolerance {args.tol:g}", file=sys.stderr)
+    if not worst <= tol:
+        print(f"parsph check: max error {worst:.3e} above tolerance {tol:g}", file=sys.stderr)
         return EXIT_ERROR
-    print(f"parsph check: all errors within {args.tol:g}")
+    print(f"parsph check: all errors within {tol:g}")
     return 0
 
 

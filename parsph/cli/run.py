@@ -1,5 +1,6 @@
 """``parsph run``: validate on every rank, run the case (:func:`parsph.simulation.case.run_case`), print the
-error table, and end with one exit code.
+error table (and a layer scene's check, :mod:`.layer_report`, as ``parsph check`` prints them), and end with one
+exit code.
 
 Bad input ends every rank alike with code 2 (:func:`parsph.errors.agree`); a
 failed run-time check with 3; SIGINT / SIGTERM after a final snapshot with
@@ -8,7 +9,7 @@ failed run-time check with 3; SIGINT / SIGTERM after a final snapshot with
 import os
 
 from parsph.errors import ConfigError, UsageError, agree
-from .report import print_table
+from .report import print_outputs
 from .world import world_command
 
 # Sections a restart may change; every other key is physics and must match.
@@ -74,7 +75,7 @@ def _run(comm, args, say, signals):
         run_case(comm, cfg, out_dir, stem, state=state, force=args.force, threads=args.threads, progress=report,
                  stop_requested=signals, say=say, report=report)
     if comm.rank == 0 and output_files(out_dir):
-        print_table(out_dir)
+        print_outputs(out_dir)
     return 0
 
 

@@ -15,7 +15,8 @@ pressure in Eq. (5). With the mass of theta0, a sediment packed 2-5x denser than
 of half its density and be squeezed into it (the settling scene's note on held walls). The lid's walls hold
 theta0 and never meet the layer in a run that fits under the lid.
 
-The references are docs/physics.md's 3 and 4 (:mod:`parsph.physics.gas_references`), built once per run's
+The references are docs/physics.md's 3 and 4 (:mod:`parsph.physics.gas_references`: the end state, Kynch's
+solution) and the whole transient between them (:mod:`parsph.physics.consolidation`), built once per run's
 values (cached).
 """
 from functools import lru_cache
@@ -24,7 +25,7 @@ import math
 import numpy as np
 
 from parsph.errors import ConfigError
-from parsph.physics import gas_references as refs
+from parsph.physics import consolidation, gas_references as refs
 from parsph.sph.particles import FLUID
 from . import lattice
 
@@ -87,6 +88,22 @@ def end_state(cfg):
 def sedimentation(cfg):
     """Kynch's solution for the layer (refs.Sedimentation)."""
     return _sedimentation(phases(cfg), cfg.theta0, layer_height(cfg), cfg.G_a, cfg.G_b, form(cfg))
+
+
+@lru_cache(maxsize=8)
+def _transient(ph, theta0, H0, L, U, G_a, G_b, form, times):
+    return consolidation.solve(theta0, H0, ph, times, L, U, G_a, G_b, form)
+
+
+def transient(cfg, times):
+    """The layer's whole transient in the column closure with inertia dropped (consolidation.Transient: the
+    sedimentation-consolidation equation from the layer at rest, theta0 up to H0, to the lid) at ``times``
+    [s] (> 0); None without a gas (the layer then falls under gravity alone: no such reference). It applies to
+    ``gas.flow = "solved"`` too, the grid's gas reducing to the column closure in a layer uniform across."""
+    if cfg.gas is None:
+        return None
+    return _transient(phases(cfg), cfg.theta0, layer_height(cfg), cfg.L, cfg.gas.U, cfg.G_a, cfg.G_b, form(cfg),
+                      tuple(sorted(set(float(t) for t in times))))
 
 
 def particles(cfg, y_lo, y_hi):
