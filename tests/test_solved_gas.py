@@ -9,10 +9,9 @@
 - the deposit: the particles' volume conserved, the same bits in any particle order, the interpolation the
   deposit's transpose (the same weights both ways), a linear field interpolated exactly;
 - K = eps^2 / beta against Stokes's closed form d^2 eps^4.65 / (18 mu theta), and its cap;
-- reference 5, the column reduction: run/sedimentation.toml and run/fluidized_bed.toml solved on the grid
-  against their column closure runs (the heights below which 5%..95% of the mass lies within 0.2% of H0 at
-  every output), and fine grains at dt/tau >= 1e3;
-- the new run-file keys' one-line errors.
+- reference 7, the dispersion relation of voidage waves against its long-wave (Wallis) limit and closed forms;
+- the new run-file keys' one-line errors, the cadence of the solve.
+The runs against references 5 and 7 are tests/test_solved_gas_runs.py.
 """
 import math
 
@@ -24,12 +23,11 @@ from parsph.errors import ConfigError
 from parsph.gas import darcy, deposit
 from parsph.gas.permeability import permeability
 from parsph.physics import inclusion
+from parsph.physics import drag
 from parsph.physics.drag import STOKES
 from parsph.setup import config
-from parsph.setup.scenes import layer
 from parsph.simulation.solver import Simulation
 from parsph.sph.particles import FLUID
-from parsph.sph.profiles import mass_quantiles
 from parsph.studies import layers
 
 
@@ -205,47 +203,6 @@ def test_permeability_is_stokes_closed_form_and_capped():
     assert capped[0] == capped[1] == 1e-3 and capped[2] < 1e-3
 
 
-# ---- reference 5: the column reduction -------------------------------------------------------------------
-def quantile_runs(path, times, extra=()):
-    def measure(sim):
-        ps = sim.ps
-        f = ps.kind[:ps.n_own] == FLUID
-        return {"q": mass_quantiles(ps.pos[:ps.n_own, 0][f], ps.mass[:ps.n_own][f]),
-                "finite": bool(np.isfinite(ps.vel[:ps.n_own]).all())}
-    out = {}
-    for flow in ("column", "solved"):
-        out[flow] = layers.run(path, [f'gas.flow="{flow}"', *extra], times=times, measure=measure)
-    return out
-
-
-@pytest.mark.parametrize("path, times", [(layers.SEDIMENTATION, [0.1, 0.3, 0.6]),
-                                         (layers.BED, [0.25, 0.5, 1.0])])
-def test_column_reduction(path, times):
-    runs = quantile_runs(path, times)
-    H0 = layer.layer_height(runs["column"].cfg)
-    assert len(runs["solved"].frames) == len(times)
-    for a, b in zip(runs["column"].frames, runs["solved"].frames):
-        assert a["t"] == b["t"]
-        assert np.abs(a["q"] - b["q"]).max() < 2e-3 * H0, (a, b)
-    moved = np.abs(runs["column"].frames[-1]["q"] - runs["column"].frames[0]["q"]).max()
-    assert moved > 0.05 * H0  # the layer moved: the comparison is not of two resting states
-
-
-def test_column_reduction_at_large_dt_over_tau():
-    """Grains of 5 um in water (the drag's time tau = rho_s theta eps^2 / beta about 1e-6 s), the implicit drag
-    at the step of the other limits: dt / tau >= 1e3, finite, and the quantiles of the column's run."""
-    extra = ["material.d=5e-6", "output.snapshots=false"]
-    cfg = layers.load(layers.SEDIMENTATION, [*extra, 'gas.flow="solved"'])
-    eps = 1 - cfg.theta0
-    tau = cfg.rho_s * cfg.gas.d ** 2 * eps ** 4.65 / (18 * cfg.gas.mu)  # Stokes, along the column
-    assert cfg.dt / tau >= 1e3
-    runs = quantile_runs(layers.SEDIMENTATION, [0.02, 0.05], extra)
-    H0 = layer.layer_height(runs["column"].cfg)
-    for a, b in zip(runs["column"].frames, runs["solved"].frames):
-        assert b["finite"]
-        assert np.abs(a["q"] - b["q"]).max() < 2e-3 * H0
-
-
 # ---- the keys ----------------------------------------------------------------------------------------------
 BED_TOML = (layers.BED.read_text())
 
@@ -274,3 +231,45 @@ def test_solve_every_reuses_the_flux_between_solves():
     sim = Simulation(cfg, MPI.COMM_SELF)
     sim.take_steps(20)
     assert sim.gas.solves == 5  # steps 0, 5, 10, 15 and 20's state
+
+
+# ---- reference 7: voidage waves -------------------------------------------------------------------------
+from parsph.physics import voidage_waves  # noqa: E402
+
+
+def glass_in_water(theta0=0.4, dp=5.0, mu_s=0.004):
+    return voidage_waves.Bed(theta0=theta0, rho_s=2500.0, rho_g=1000.0, mu_g=1e-3, d=3e-4, g=9.81, mu_s=mu_s, dp=dp)
+
+
+def test_voidage_waves_stokes_closed_forms():
+    """Stokes drag: U_f = u_t eps0^4.65 (Richardson & Zaki) and c_k = 4.65 theta0 u_t eps0^3.65."""
+    bed = glass_in_water()
+    u_t = drag.terminal_velocity(bed.rho_s, bed.rho_g, bed.g, bed.d, bed.mu_g)
+    eps = 1 - bed.theta0
+    assert bed.fluidising_velocity() == pytest.approx(u_t * eps ** 4.65, rel=1e-12)
+    assert bed.kinematic_speed() == pytest.approx(4.65 * bed.theta0 * u_t * eps ** 3.65, rel=1e-6)
+
+
+@pytest.mark.parametrize("dp", [0.5, 5.0, 50.0])  # on both sides of Wallis's bound
+def test_voidage_waves_long_wave_limit_is_wallis(dp):
+    """As k -> 0: s = -i k c_k + k^2 theta0 rho_s (c_k^2 - c_d^2) / B + O(k^3) (the expansion of the quadratic):
+    the wave speed tends to c_k, and long waves grow iff c_k > c_d."""
+    bed = glass_in_water(dp=dp, mu_s=0.0)
+    c_k, c_d = bed.kinematic_speed(), bed.elastic_speed()
+    f_theta, B = bed.derivatives()
+    for wavelength in (5.0, 10.0):
+        k = 2 * math.pi / wavelength
+        growth, speed = bed.growth_and_speed(wavelength)
+        assert speed == pytest.approx(c_k, rel=1e-3)
+        assert growth == pytest.approx(k * k * bed.theta0 * bed.rho_s * (c_k ** 2 - c_d ** 2) / B, rel=2e-2)
+        assert (growth > 0) == (c_k > c_d)
+
+
+def test_voidage_waves_root_solves_the_quadratic():
+    bed = glass_in_water()
+    f_theta, B = bed.derivatives()
+    k = 2 * math.pi / 0.01
+    s = bed.rate(k)
+    residual = bed.theta0 * bed.rho_s * s * s + (bed.theta0 * bed.mu_s * k * k + B) * s \
+        + 1j * k * bed.theta0 * f_theta + k * k * bed.theta0 * bed.dp
+    assert abs(residual) < 1e-9 * (B * abs(s) + k * k * bed.theta0 * bed.dp)

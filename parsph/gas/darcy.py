@@ -7,7 +7,8 @@ written in finite volumes on the cell-centred grid (:mod:`parsph.gas.grid`): per
 through its faces sum to zero, a face's flux (V_f - K_f (p_nb - p_c) / h) times its length, K_f the
 harmonic mean of the two cells' K (exact for layers in series), V_f their mean. The solids do not cross a
 boundary face (V_f = 0 there). A side is periodic, or has a given normal flux (a floor fed at U(y); U = 0
-closes it), or a given pressure at the face (p' = 0: an open top). The matrix is symmetric positive
+closes it), or a given pressure at the face (p' = 0: an open top); a periodic x may carry a given mean
+flux (:class:`Darcy`'s ``mean_flux``). The matrix is symmetric positive
 definite (semi-definite where no side has a given pressure: then p' is pinned to 0 in the first cell, as its
 constant is free). Direct solves, no iteration to fail: where x has sides the cells are numbered along y
 first, so the matrix is a band of half-width ny (periodic y included) and LAPACK's banded Cholesky
@@ -64,8 +65,9 @@ def _harm(a, b):
 
 
 @njit(cache=True)
-def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, jy, p):
-    """The mixture's flux through every face from the solved p' (a given flux where a side gives it)."""
+def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, jy, p, drive):
+    """The mixture's flux through every face from the solved p' (a given flux where a side gives it);
+    ``drive``: a mean gradient -drive of p' along a periodic x adds drive K_f to the x-faces' flux."""
     nx, ny = K.shape
     for i in range(nx + 1):
         for j in range(ny):
@@ -84,7 +86,8 @@ def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, 
                     sign = -1.0 if lo else 1.0
                     jx[i, j] = -K[c, j] * sign * (v - p[c, j]) / (0.5 * hx)
                 continue
-            jx[i, j] = 0.5 * (V[a, j, 0] + V[b, j, 0]) - _harm(K[a, j], K[b, j]) * (p[b, j] - p[a, j]) / hx
+            Kf = _harm(K[a, j], K[b, j])
+            jx[i, j] = 0.5 * (V[a, j, 0] + V[b, j, 0]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / hx
     for i in range(nx):
         for j in range(ny + 1):
             if 0 < j < ny:
@@ -106,10 +109,11 @@ def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, 
 
 
 @njit(cache=True)
-def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, indptr, indices, data, rhs, pin):
+def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, indptr, indices, data, rhs, pin,
+              drive):
     """The matrix's values (on its fixed pattern ``indptr``, ``indices``, each row's columns sorted) and the
     right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f + given
-    fluxes) times their lengths, g = length K_f / distance."""
+    fluxes) times their lengths, g = length K_f / distance; ``drive`` as in :func:`_faces`."""
     nx, ny = K.shape
     n = nx * ny
     data[:] = 0.0
@@ -138,8 +142,11 @@ def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, i
                     jj = jj % ny
             sign = 1.0 if up else -1.0
             if inside:
-                g = length * _harm(K[i, j], K[ii, jj]) / h
+                Kf = _harm(K[i, j], K[ii, jj])
+                g = length * Kf / h
                 vout = sign * 0.5 * (V[i, j, axis] + V[ii, jj, axis])
+                if axis == 0:
+                    vout += sign * drive * Kf
                 rhs[c] -= length * vout
                 nb = ii * ny + jj
                 for q in range(row0, row1):
@@ -170,9 +177,17 @@ def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, i
 class Darcy:
     """The solve on one grid (nx x ny cells of hx x hy) with its sides: ``x_sides`` = (low, high)
     :class:`Side` at x = 0 and x = nx hx, None for periodic; likewise ``y_sides``. Periodic axes need 3
-    cells or more (a cell's two neighbours along them are then distinct)."""
+    cells or more (a cell's two neighbours along them are then distinct).
 
-    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None):
+    ``mean_flux`` (x periodic): the mixture's flux through every cross-section of x, per unit length of it
+    (a box periodic along gravity fed at U). Then p' = p~ - G x, p~ periodic: the solve for p~ with G = 0 and
+    with the unit G (one factorisation, two right-hand sides), superposed with the G that carries the flux."""
+
+    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None):
+        if mean_flux is not None and x_sides is not None:
+            raise ValueError("a mean flux drives a periodic x only")
+        self.mean_flux = mean_flux
+        self.gradient = 0.0  # G of the last solve: p' = p~ - G x
         self.nx, self.ny, self.hx, self.hy = nx, ny, hx, hy
         for n, sides, name in ((nx, x_sides, "x"), (ny, y_sides, "y")):
             if n < 3 and sides is None:
@@ -217,26 +232,40 @@ class Darcy:
         K = np.ascontiguousarray(K, float)
         V = np.ascontiguousarray(V, float)
         _assemble(K, V, self.hx, self.hy, self.kinds, *self.values, self.indptr, self.indices, self.data,
-                  self.rhs, self.pin)
-        n = self.nx * self.ny
+                  self.rhs, self.pin, 0.0)
+        n, shape = self.nx * self.ny, (self.nx, self.ny)
         with np.errstate(all="ignore"):
             try:
                 if self.banded:
                     ab = np.zeros((self.ny + 1, n))
                     ab[self.band_at] = self.data[self.upper]
                     p = sla.solveh_banded(ab, self.rhs, check_finite=False)
-                else:
+                elif self.mean_flux is None:
                     p = spla.spsolve(sp.csr_matrix((self.data, self.indices, self.indptr), shape=(n, n)), self.rhs)
+                else:
+                    lu = spla.splu(sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr), shape=(n, n))))
+                    p = lu.solve(self.rhs)
+                    unit_rhs = np.zeros(n)
+                    _assemble(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, self.indptr,
+                              self.indices, np.zeros_like(self.data), unit_rhs, self.pin, 1.0)
+                    p1 = lu.solve(unit_rhs)
             except (RuntimeError, np.linalg.LinAlgError, ValueError) as e:  # a singular or indefinite matrix
                 raise SolveFailed(str(e)) from None
         if not np.all(np.isfinite(p)):
             raise SolveFailed("the pressure is not finite")
-        p = p.reshape(self.nx, self.ny)
         jx, jy = np.zeros((self.nx + 1, self.ny)), np.zeros((self.nx, self.ny + 1))
-        _faces(K, V, self.hx, self.hy, self.kinds, *self.values, jx, jy, p)
-        return Solution(p, jx, jy)
+        _faces(K, V, self.hx, self.hy, self.kinds, *self.values, jx, jy, p.reshape(shape), 0.0)
+        if self.mean_flux is not None:
+            jx1, jy1 = np.zeros_like(jx), np.zeros_like(jy)
+            _faces(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, jx1, jy1, p1.reshape(shape), 1.0)
+            G = (self.mean_flux * self.ny - jx[0].sum()) / jx1[0].sum()
+            if not np.isfinite(G):
+                raise SolveFailed("the mean pressure gradient is not finite")
+            p, jx, jy = p + G * p1, jx + G * jx1, jy + G * jy1
+            self.gradient = float(G)
+        return Solution(p.reshape(shape), jx, jy)
 
 
-def solve(K, V, hx, hy, x_sides=None, y_sides=None):
+def solve(K, V, hx, hy, x_sides=None, y_sides=None, mean_flux=None):
     """One solve (:class:`Darcy` made for it)."""
-    return Darcy(K.shape[0], K.shape[1], hx, hy, x_sides, y_sides).solve(K, V)
+    return Darcy(K.shape[0], K.shape[1], hx, hy, x_sides, y_sides, mean_flux).solve(K, V)

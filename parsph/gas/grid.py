@@ -39,4 +39,6 @@ def grid_of(L, Ly, cell, walls):
     """The grid of a box L x Ly with cells of about ``cell`` [m] (their sizes adjusted to tile it; 3 or more
     along the periodic y)."""
     nx, ny = cells_along(L, cell), max(3, cells_along(Ly, cell))
+    if not walls:
+        nx = max(3, nx)
     return Grid(nx, ny, L / nx, Ly / ny, bool(walls))

@@ -326,6 +326,42 @@ CELL_DX = 4.0
 K_MAX_FACTOR = 1000.0  # the default cap of K: this times K(theta0) (docs/physics.md, reference 6)
 
 
+def _pressure_term(v, scene):
+    """Eq. (5)'s pressure term: as terms.pressure says, else as the scene declares; a perturbed scene has it
+    (a compression wave without the solids pressure would grow at the G -> 0 rate)."""
+    given = v["terms"]["pressure"]
+    if _perturbation(v) is not None:
+        if given is False:
+            raise ConfigError("terms.pressure", "is off, but a perturbation compresses the solids: its waves need "
+                              "the solids pressure (leave terms.pressure out, or set it true)")
+        return True
+    return scene.terms.pressure if given is None else given
+
+
+def _perturbation(v):
+    """(amplitude, wavelength) of [perturbation], or None where its amplitude is 0."""
+    p = v["perturbation"]
+    A, lam = p["amplitude"], p["wavelength"]
+    if A == 0.0:
+        if lam is not None:
+            raise ConfigError("perturbation.wavelength", "has no effect without perturbation.amplitude")
+        return None
+    if lam is None:
+        raise ConfigError("perturbation.amplitude", "needs perturbation.wavelength [m]")
+    if not 2.0 * math.pi * abs(A) < lam:
+        raise ConfigError("perturbation.amplitude", f"{A:g} m is too large for the wavelength {lam:g} m: "
+                          "2 pi |amplitude| / wavelength >= 1 lets particles overtake each other")
+    scene = get_scene(v["scene"]["name"])
+    L, Nx = v["domain"]["L"], v["numerics"]["Nx"]
+    if scene.walls and not abs(A) < 0.5 * L / Nx:
+        raise ConfigError("perturbation.amplitude", f"{A:g} m would move the particles next to a wall past it: "
+                          f"keep it below dx/2 = {0.5 * L / Nx:g} m")
+    if not scene.walls and abs(L / lam - round(L / lam)) > 1e-9 * L / lam:
+        raise ConfigError("perturbation.wavelength", f"{lam:g} m does not divide the period domain.L = {L:g} m "
+                          "(x is periodic): give L / n")
+    return A, lam
+
+
 def _solved_gas(v, dim, g, flow, gas):
     """The solved gas's grid keys (cell, K_max, solve_every); they belong to it alone. K_max's default is
     left 0 here and set from K(theta0) by :func:`solved_cap`."""
@@ -337,24 +373,22 @@ def _solved_gas(v, dim, g, flow, gas):
     scene = get_scene(v["scene"]["name"])
     if dim != 2:
         raise ConfigError("scene.dim", "the solved gas runs in 2-D (its grid is two-dimensional): give scene.dim = 2")
-    if not scene.walls:
-        raise ConfigError("gas.flow", f'the solved gas needs a floor and a lid (walls at x = 0 and x = L); the '
-                          f'{scene.name} scene has none')
     if not (g[0] < 0.0 and g[1] == 0.0):
-        raise ConfigError("body_force.g", f"the solved gas is fed through the floor at x = 0: give gravity along -x, "
-                          f"got {list(g)}")
+        where = "through the floor at x = 0" if scene.walls else "along the periodic x at the mean flux gas.U"
+        raise ConfigError("body_force.g", f"the solved gas is fed {where}: give gravity along -x, got {list(g)}")
     return dict(cell=float(gas["cell"] or 0.0), K_max=float(gas["K_max"] or 0.0),
                 solve_every=int(gas["solve_every"] or 1))
 
 
-def _solved_grid(gas, lat):
+def _solved_grid(gas, lat, walls):
     """The solved gas's cell size (default :data:`CELL_DX` dx) against the box, and its default cap K_max =
     :data:`K_MAX_FACTOR` K(theta0) where none is given."""
     Lx, Ly, dx = lat["L"], lat["Ly"], lat["dx"]
     cell = gas.cell or CELL_DX * dx
-    if not (cell <= Lx / 2.0 * (1.0 + 1e-12) and cell <= Ly / 3.0 * (1.0 + 1e-12)):
-        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than 2 cells along x or 3 along the periodic y "
-                          f"(the box is {Lx:g} m x {Ly:g} m: domain.L x domain.Ly)")
+    nx_min = 2 if walls else 3  # a periodic axis needs 3 cells (a cell's two neighbours distinct)
+    if not (cell <= Lx / nx_min * (1.0 + 1e-12) and cell <= Ly / 3.0 * (1.0 + 1e-12)):
+        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than {nx_min} cells along x or 3 along the periodic "
+                          f"y (the box is {Lx:g} m x {Ly:g} m: domain.L x domain.Ly)")
     if not (Lx / cell <= 4096 and Ly / cell <= 4096):
         raise ConfigError("gas.cell", f"{cell:g} m makes more than 4096 cells along an axis (the solve is one "
                           "rank's sparse direct solve)")
@@ -419,7 +453,7 @@ def build(run_file):
     g = _body_force(v, dim, scene)
     gas = _gas(v, dim, g, mat["rho_s"])
     if gas is not None and gas.solved:
-        gas = _solved_grid(gas, lat)
+        gas = _solved_grid(gas, lat, scene.walls)
     theta0 = mat["theta0"]
     cfg = RunConfig(
         values=v, text=text, **lat, layers=layers,
@@ -427,7 +461,7 @@ def build(run_file):
         theta0=theta0, k=mat["k"], G_a=mat["G_a"], G_b=mat["G_b"], V_w=walls["V_w"], beta_max=walls["beta_max"],
         kernel=num["kernel"], dt=0.0, dt_auto=False, t_end=out["t_end"], nsteps=0, output_times=(),
         integrator=num["integrator"], g=g, scene=scene, gas=gas,
-        pressure=scene.terms.pressure if terms["pressure"] is None else terms["pressure"],
+        pressure=_pressure_term(v, scene),
         viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
     if scene.check is not None:
         scene.check(cfg)

@@ -116,6 +116,12 @@ SCHEMA = {
         "snapshots": Key("bool", True, doc="write particle snapshots at the output times"),
         "progress_interval": Key("float", 5.0, nonnegative=True, doc="seconds between progress lines (0: none)"),
     },
+    "perturbation": {
+        "amplitude": Key("float", 0.0, doc="the fluid particles displaced along x (gravity's axis in a bed) by "
+                                           "amplitude sin(2 pi x / wavelength) at the start [m] (0: none)"),
+        "wavelength": Key("float", None, positive=True,
+                          doc="the perturbation's wavelength [m] (with walls any; x periodic: L / wavelength whole)"),
+    },
     "checks": {
         "every": Key("int", 20, lo=1, hi=2 ** 40, doc="steps between run-time checks"),
         "theta_change": Key("float", 0.5, positive=True,

@@ -28,15 +28,17 @@ class GasStage:
         gas = cfg.gas
         self.gas = gas
         self.rho_s = cfg.rho_s
-        self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=True)
+        self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=cfg.scene.walls)
         g = self.grid
         self.sums = np.zeros((3, g.nx, g.ny), np.int64)
         self.exchange = GridSum(comm)
         self.K_max = gas.K_max or K_MAX_FACTOR * float(
             permeability(np.array([cfg.theta0]), 0.0, gas.model, gas.rho, gas.mu, gas.d, np.inf)[0])
-        # the floor fed at U, the lid open (p' = 0); y periodic
-        self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", np.full(g.ny, gas.U)),
-                                                          darcy.Side("pressure", np.zeros(g.ny))), None)
+        if g.walls:  # the floor fed at U, the lid open (p' = 0); y periodic
+            self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", np.full(g.ny, gas.U)),
+                                                              darcy.Side("pressure", np.zeros(g.ny))), None)
+        else:  # periodic along gravity: the mean flux U through every cross-section
+            self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, None, None, mean_flux=gas.U)
         self.every = gas.solve_every
         self.solved_at = None
         self.solves = 0
@@ -50,13 +52,13 @@ class GasStage:
             self.solve(ps, step, t)
         g = self.grid
         deposit.interpolate(ps.pos, ps.kind, ps.n_own, self.j, g.nx, g.ny, g.hx, g.hy, g.nx * g.hx, g.ny * g.hy,
-                            True, ps.flux)
+                            g.walls, ps.flux)
 
     def solve(self, ps, step, t):
         g, gas = self.grid, self.gas
         self.sums[:] = 0
         deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.hx, g.hy,
-                        g.nx * g.hx, g.ny * g.hy, True, self.sums)
+                        g.nx * g.hx, g.ny * g.hy, g.walls, self.sums)
         self.exchange(self.sums)
         theta, V = deposit.fields_of(self.sums, g)
         failed = None

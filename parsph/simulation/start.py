@@ -13,7 +13,9 @@ def slab_particles(cfg, ring, comm, state):
     """This slab's particles and whether the first build restores the list (``ref`` from a snapshot):
     from the scene, a snapshot (``state["path"]``) or arrays (id, kind, mass, position, velocity)."""
     if state is None:
-        return Particles.from_arrays(*cfg.scene.particles(cfg, ring.lo, ring.hi)), False
+        gid, kind, mass, pos, vel = cfg.scene.particles(cfg, ring.lo, ring.hi)
+        perturb(cfg, kind, pos)
+        return Particles.from_arrays(gid, kind, mass, pos, vel), False
     if "path" in state:  # a snapshot: only this slab's particles, read collectively (O(N/P) memory)
         p = read_particles(state["path"], comm, ring.lo, ring.hi)
         exact = "ref" in p  # the solver's state as it held it: continue from the same neighbour list
@@ -27,6 +29,15 @@ def slab_particles(cfg, ring, comm, state):
     mine = (y >= ring.lo) & (y < ring.hi)
     return Particles.from_arrays(state["id"][mine], state["kind"][mine].astype(np.int64), state["mass"][mine],
                                  state["position"][mine], state["velocity"][mine]), False
+
+
+def perturb(cfg, kind, pos):
+    """[perturbation]: the fluid particles displaced along x by amplitude sin(2 pi x / wavelength) (a voidage
+    wave's seed; along gravity in the beds and layers), in place."""
+    A = cfg.get("perturbation.amplitude")
+    if A:
+        fluid = kind == FLUID
+        pos[fluid, 0] += A * np.sin(2.0 * np.pi * pos[fluid, 0] / cfg.get("perturbation.wavelength"))
 
 
 def hold_wall_density(cfg, kernel, ps):

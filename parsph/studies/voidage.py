@@ -1,0 +1,60 @@
+"""Voidage waves measured (docs/physics.md, reference 7; docs/validation.md, "The solved gas"): a perturbed
+uniform bed (run/voidage_waves.toml) stepped on one rank, the particles' mass mode a(t) = sum_i m_i
+exp(-i k x_i) read at each output time, and its growth rate d ln|a| / dt and wave speed -(d arg a / dt) / k
+fitted by least squares once the fast root has decayed; against :class:`parsph.physics.voidage_waves.Bed`."""
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from parsph.physics import limits
+from parsph.physics.voidage_waves import Bed
+from parsph.setup import config
+from parsph.simulation.solver import Simulation
+from parsph.sph.particles import FLUID
+
+WAVES = Path(__file__).resolve().parents[2] / "run" / "voidage_waves.toml"
+
+
+def bed_of(cfg):
+    """The linear theory's bed for a run (Stokes drag, the pressure form in use, mu_s = k theta0)."""
+    gas = cfg.gas
+    g = math.sqrt(sum(x * x for x in cfg.g))
+    return Bed(cfg.theta0, cfg.rho_s, gas.rho, gas.mu, gas.d, g, cfg.k * cfg.theta0,
+               limits.dpressure(cfg.theta0, cfg.G_a, cfg.G_b, cfg.get("numerics.pressure_form")), gas.model)
+
+
+def mass_mode(ps, k):
+    """sum_i m_i exp(-i k x_i) over the owned fluid particles."""
+    f = ps.kind[:ps.n_own] == FLUID
+    return complex(np.sum(ps.mass[:ps.n_own][f] * np.exp(-1j * k * ps.pos[:ps.n_own, 0][f])))
+
+
+@dataclass
+class Wave:
+    growth: float       # [1/s]
+    speed: float        # [m/s]
+    theory: tuple       # (growth, speed) of reference 7
+    times: np.ndarray
+    modes: np.ndarray   # a(t)
+
+
+def measure(sets=(), n_times=21, t_end=None, path=WAVES):
+    """Run the case with ``sets``, reading a(t) at n_times times, and fit the second half of them."""
+    cfg0 = config.load(path, sets)
+    t_end = t_end or cfg0.t_end
+    times = [round(t_end * i / (n_times - 1), 12) for i in range(n_times)]
+    cfg = config.load(path, [*sets, f"output.t_end={t_end!r}", f"output.times={times!r}", "output.snapshots=false"])
+    k = 2 * math.pi / cfg.get("perturbation.wavelength")
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    modes = []
+    sim.run(output=lambda frame, snapshot: modes.append(mass_mode(sim.ps, k)))
+    modes = np.array(modes)
+    t = np.array(times)
+    late = t >= 0.5 * t_end
+    growth = np.polyfit(t[late], np.log(np.abs(modes[late])), 1)[0]
+    omega = np.polyfit(t[late], np.unwrap(np.angle(modes[late])), 1)[0]
+    bed = bed_of(cfg)
+    return Wave(float(growth), float(-omega / k), bed.growth_and_speed(2 * math.pi / k), t, modes)
