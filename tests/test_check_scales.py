@@ -43,7 +43,7 @@ def test_a_box_in_a_stream_is_measured_against_stream_and_wave():
     cfg = load("run/suspension.toml")
     rho_s, d, mu, theta0, w, U, L = 2500.0, 3e-4, 1e-3, 0.3, 0.02, 0.01, 0.004
     tau = rho_s * d * d * (1 - theta0) ** 3.65 / (18 * mu)
-    nu = 0.1 * theta0 / rho_s                     # mu_s / rho_s, mu_s = k theta0 (PHYSICS.md, Eq. (5))
+    nu = 0.1 * theta0 / rho_s                     # mu_s / rho_s, mu_s = k theta0 (docs/physics.md, Eq. (5))
     k = 2 * math.pi / L
     for t in (0.0, 0.001, 0.002, 0.005, 0.02):
         assert cfg.error_scale(t) == pytest.approx(U * math.exp(-(nu * k * k + 1 / tau) * t) + w, rel=1e-9)
