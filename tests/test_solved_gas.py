@@ -143,8 +143,9 @@ def _particles(n, Lx, Ly, seed=2):
 
 
 def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0):
-    out = np.zeros((3, nx, ny), np.int64)
-    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, out)
+    out = np.zeros((6, nx, ny), np.int64)
+    rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
+    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, out, rates, 30.0)
     return out
 
 
@@ -158,6 +159,10 @@ def test_deposit_conserves_volume_and_momentum_in_any_order():
     assert abs(sums[0].sum() / deposit.SCALE * area - (mass[fluid] / rho_s).sum()) <= rounding
     for c in (0, 1):
         assert abs(sums[1 + c].sum() / deposit.SCALE * area - (mass[fluid] / rho_s * vel[fluid, c]).sum()) <= rounding
+    # the resistance: sum of m C over the particles (C = 100 |v_x| here)
+    R, V_R = deposit.resistance_of(sums, rho_s, 30.0)
+    r_rounding = 4 * fluid.sum() * 0.5 / deposit.RATE_SCALE * rho_s * 30.0 * area
+    assert abs(R.sum() * area - (mass[fluid] * 100.0 * np.abs(vel[fluid, 0])).sum()) <= r_rounding
     perm = np.random.default_rng(9).permutation(len(mass))
     again = _deposit(pos[perm], vel[perm], mass[perm], kind[perm], nx, ny, Lx, Ly)
     assert np.array_equal(sums, again)  # integers: the same bits in any order

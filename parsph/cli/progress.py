@@ -123,7 +123,8 @@ class Progress:
         self.say(self.line(sim))
 
     def summary(self, sim, steps_done):
-        """``done: N steps in T s: time loop L s (R particle-steps/s), set-up S s, compile C s; ...``."""
+        """``done: N steps in T s: time loop L s (R particle-steps/s), set-up S s, compile C s; ...`` (and with
+        the solved gas, its solve's seconds and share of the time loop)."""
         end = sim.loop_started + sim.wall_time
         total = end - self.started
         compile_s = self.watch.seconds(self.started, end)
@@ -134,5 +135,8 @@ class Progress:
             loop = end - steady[2] - self.watch.seconds(steady[2], end)
             rate = f" ({self.n_total * (sim.step - steady[0]) / loop:.3g} particle-steps/s)" if loop > 0 else ""
         setup = total - compile_s - loop
+        gas = ""
+        if getattr(sim, "gas", None) is not None and loop > 0:  # the solved gas: its share of the time loop
+            gas = f"; the gas solve {sim.timers['gas']:.1f} s ({100 * sim.timers['gas'] / loop:.0f}% of the loop)"
         return (f"done: {steps_done} steps in {total:.1f} s: time loop {loop:.1f} s{rate}, set-up and first step "
-                f"{setup:.1f} s, compile {compile_s:.1f} s; neighbour list built {sim.rebuilds} times")
+                f"{setup:.1f} s, compile {compile_s:.1f} s; neighbour list built {sim.rebuilds} times{gas}")

@@ -1,6 +1,7 @@
 """The particles on the grid and the grid at the particles, with one set of weights both ways (cloud in
 cell: bilinear in the cell centres), so that the force the grid's fields put on the solids is the reaction
-of what they deposited (docs/physics.md, "The solved gas").
+of what they deposited (docs/physics.md, "The solved gas"). Besides theta and theta v, each particle
+deposits its drag resistance m C (C its drag rate, 1/s): the cell's R, whose inverse is the cell's K.
 
 A particle of volume m / rho_s adds w_c m / (rho_s A) to theta and that times v to theta v of the four
 cells c around it (A a cell's area, the w_c summing to 1). Where a cell would lie beyond a plate, its weight
@@ -18,6 +19,7 @@ import numpy as np
 from numba import njit
 
 SCALE = 2.0 ** 40
+RATE_SCALE = 2.0 ** 36  # the resistance, relative to a reference (a rate 2^27 times the reference's fits)
 FLUID = 0  # parsph.sph.particles.FLUID (the gas layer imports nothing of sph)
 
 
@@ -49,9 +51,12 @@ def _axis_weights(x, h, n, length, bounded):
 
 
 @njit(cache=True)
-def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, out):
-    """Add the owned fluid particles' theta, theta v_x, theta v_y (fixed point) to out[0..2] (shape (3, nx, ny))."""
+def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, out, rate, rate_ref):
+    """Add the owned fluid particles' theta, theta v_x, theta v_y and, where ``rate`` has them, their drag
+    resistance m C / (A R_ref) and that times v_x, v_y (fixed point) to out[0..5] (shape (6, nx, ny));
+    ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]."""
     inv = 1.0 / (rho_s * hx * hy)
+    resist = len(rate) > 0
     for k in range(n_own):
         if kind[k] != FLUID:
             continue
@@ -60,6 +65,7 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, o
         vol = mass[k] * inv
         vx = vel[k, 0]
         vy = vel[k, 1]
+        r = rate[k] / rate_ref if resist else 0.0
         for a in range(4):
             i = i0 if a < 2 else i1
             j = j0 if a % 2 == 0 else j1
@@ -67,6 +73,10 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, o
             out[0, i, j] += np.int64(round(w * SCALE))
             out[1, i, j] += np.int64(round(w * vx * SCALE))
             out[2, i, j] += np.int64(round(w * vy * SCALE))
+            if resist:
+                out[3, i, j] += np.int64(round(w * r * RATE_SCALE))
+                out[4, i, j] += np.int64(round(w * r * vx * RATE_SCALE))
+                out[5, i, j] += np.int64(round(w * r * vy * RATE_SCALE))
 
 
 @njit(cache=True)
@@ -84,6 +94,19 @@ def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, out):
         for c in range(nc):
             out[k, c] = (wx0 * (wy0 * field[i0, j0, c] + wy1 * field[i0, j1, c])
                          + wx1 * (wy0 * field[i1, j0, c] + wy1 * field[i1, j1, c]))
+
+
+def resistance_of(sums, rho_s, rate_ref):
+    """R = sum_i w m_i C_i / A per cell [kg/(m^3 s)] from the summed deposits, and the velocity its particles'
+    drag is weighted by, V_R = sum_i w m_i C_i v_i / sum_i w m_i C_i (nx, ny, 2; 0 where R = 0): the cell's
+    particles feel the drag R (W - V_R) for a target W, so that with K = 1 / R and W = V_R - K grad p' the
+    grid's -grad p' is the sum of their drag."""
+    R = sums[3] / RATE_SCALE * (rho_s * rate_ref)
+    V = np.zeros(sums.shape[1:] + (2,))
+    some = sums[3] > 0
+    V[some, 0] = sums[4][some] / sums[3][some]
+    V[some, 1] = sums[5][some] / sums[3][some]
+    return R, V
 
 
 def fields_of(sums, grid, theta_min=1e-6):

@@ -1,26 +1,53 @@
-"""The solved gas's part of a step (docs/physics.md, "The solved gas"), before the passes of an evaluation:
-the owned particles deposited on the grid (:mod:`parsph.gas.deposit`), the deposits summed over the ranks
-(:class:`parsph.parallel.grid_sum.GridSum`), K on the cells, the pressure solved (:mod:`parsph.gas.darcy`) and
-the mixture's flux j interpolated back to the owned particles (``ps.flux``), where the drag loops read it
-(:func:`parsph.sph.equations.drag_plain`: C = K / eps toward w = j, implicit in v with
-``numerics.drag_update = "implicit"``).
+"""The solved gas's part of an evaluation (docs/physics.md, "The solved gas"), between Eq. (3) and Eq. (5)
+(the particles' theta of the state known): the owned particles deposited on the grid (:mod:`parsph.gas.deposit`:
+theta, theta v and their drag resistance m C), the deposits summed over the ranks
+(:class:`parsph.parallel.grid_sum.GridSum`), K = 1 / R on the cells (capped), the pressure solved
+(:mod:`parsph.gas.darcy`) and the mixture's flux j interpolated back to the owned particles (``ps.flux``), where
+the drag loops read it (:func:`parsph.sph.equations.drag_plain`: C = K_i / eps_i toward w = j, implicit in v
+with ``numerics.drag_update = "implicit"``).
 
-The coupling: j of the state the passes evaluate, the particles' drag implicit toward it. The gradient
-part of the solids' velocity (what compresses the mixture) is what p' removes; with j fixed it relaxes at the
-drag's rate in one implicit update, stable at any dt/tau, and in a column 1-D in the mean j = U exactly, so the
-step is the column closure's (docs/physics.md, "Stiffness").
+K from the particles' own drag rates, and V their velocity weighted as their drag weights it (not the cell's
+mean theta and volume-weighted velocity): the grid's -grad p' is then the sum of the drag its particles feel,
+so the gas takes the reaction of the force on the solids. With K from the cells' theta a bubbling box's mean
+gradient carried 75% of its weight (a cluster's drag is not the drag of its mean theta), with the volume-
+weighted V 113% (a cluster's particles fall faster than its cell's mean).
+
+The coupling: j of the state the passes evaluate, the particles' drag implicit toward it. The gradient part of
+the solids' velocity (what compresses the mixture) is what p' removes; with j fixed it relaxes at the drag's
+rate in one implicit update, stable at any dt/tau, and in a column 1-D in the mean j = U exactly, so the step
+is the column closure's (docs/physics.md, "How parsph solves it").
 
 Every rank solves the same grid (the sums are exact), so every rank count gives the same bits.
 """
 import numpy as np
+from numba import njit
 
 from parsph.errors import SolveError
 from parsph.gas import darcy, deposit
 from parsph.gas.grid import grid_of
 from parsph.gas.permeability import permeability
 from parsph.parallel.grid_sum import GridSum
+from parsph.physics.drag import STOKES, rate
 from parsph.setup.config import K_MAX_FACTOR
-from parsph.physics.drag import STOKES
+from parsph.sph.particles import FLUID
+
+
+@njit(cache=True, error_model="numpy")
+def drag_rates(theta, vel, flux, kind, n_own, with_slip, model, rho_s, rho_g, mu_g, d, out):
+    """out[k] = C_k = K(theta_k, |j_k - v_k|^2 / eps_k^2) / eps_k [1/s] of the owned fluid particles (the
+    solved gas's drag rate along every axis; slip 0 unless ``with_slip``)."""
+    for k in range(n_own):
+        if kind[k] != FLUID:
+            out[k] = 0.0
+            continue
+        e = 1.0 - theta[k]
+        slip2 = 0.0
+        if with_slip:
+            for c in range(vel.shape[1]):
+                s = flux[k, c] - vel[k, c]
+                slip2 += s * s
+            slip2 /= e * e
+        out[k] = rate(model, theta[k], slip2, rho_s, rho_g, mu_g, d) / e
 
 
 class GasStage:
@@ -30,10 +57,12 @@ class GasStage:
         self.rho_s = cfg.rho_s
         self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=cfg.scene.walls)
         g = self.grid
-        self.sums = np.zeros((3, g.nx, g.ny), np.int64)
+        self.sums = np.zeros((6, g.nx, g.ny), np.int64)
         self.exchange = GridSum(comm)
         self.K_max = gas.K_max or K_MAX_FACTOR * float(
             permeability(np.array([cfg.theta0]), 0.0, gas.model, gas.rho, gas.mu, gas.d, np.inf)[0])
+        theta0 = cfg.theta0
+        self.rate_ref = rate(gas.model, theta0, 0.0, cfg.rho_s, gas.rho, gas.mu, gas.d) / (1.0 - theta0)
         if g.walls:  # the floor fed at U, the lid open (p' = 0); y periodic
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", np.full(g.ny, gas.U)),
                                                               darcy.Side("pressure", np.zeros(g.ny))), None)
@@ -43,39 +72,49 @@ class GasStage:
         self.solved_at = None
         self.solves = 0
         self.j = None          # the mixture's flux at the cell centres (nx, ny, 2)
-        self.solution = None   # the last darcy.Solution, with theta and V of its deposit
+        self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
+        self.rates = np.zeros(0)
         ps.add_field("flux")
 
     def __call__(self, ps, step, t):
         """ps.flux of the owned particles for the state at ``step``, ``t`` (a solve where one is due)."""
         if self.j is None or self.every == 1 or (step % self.every == 0 and step != self.solved_at):
             self.solve(ps, step, t)
+        self._interpolate(ps)
+
+    def _interpolate(self, ps):
         g = self.grid
         deposit.interpolate(ps.pos, ps.kind, ps.n_own, self.j, g.nx, g.ny, g.hx, g.hy, g.nx * g.hx, g.ny * g.hy,
                             g.walls, ps.flux)
 
     def solve(self, ps, step, t):
         g, gas = self.grid, self.gas
-        self.sums[:] = 0
-        deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.hx, g.hy,
-                        g.nx * g.hx, g.ny * g.hy, g.walls, self.sums)
-        self.exchange(self.sums)
-        theta, V = deposit.fields_of(self.sums, g)
+        if len(self.rates) < ps.n_own:
+            self.rates = np.zeros(ps.capacity)
         failed = None
-        try:
-            slip = 0.0
-            for _ in range(1 if gas.model == STOKES else 2):  # the slip-dependent closures: K at the slip of a first solve
-                K = permeability(theta, slip, gas.model, gas.rho, gas.mu, gas.d, self.K_max)
+        passes = 1 if gas.model == STOKES else 2  # the slip-dependent closures: C at the slip of a first solve
+        for p in range(passes):
+            drag_rates(ps.theta, ps.vel, ps.flux, ps.kind, ps.n_own, p > 0, gas.model, self.rho_s, gas.rho, gas.mu,
+                       gas.d, self.rates)
+            self.sums[:] = 0
+            deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.hx, g.hy,
+                            g.nx * g.hx, g.ny * g.hy, g.walls, self.sums, self.rates, self.rate_ref)
+            self.exchange(self.sums)
+            theta, _ = deposit.fields_of(self.sums, g)
+            R, V = deposit.resistance_of(self.sums, self.rho_s, self.rate_ref)
+            with np.errstate(divide="ignore"):
+                K = np.minimum(np.where(R > 0.0, 1.0 / R, np.inf), self.K_max)
+            try:
                 sol = self.darcy.solve(K, V)
-                j = sol.centred()
-                slip = np.sqrt(((j - V) ** 2).sum(axis=-1)) / (1.0 - np.minimum(theta, 0.95))
-        except darcy.SolveFailed as e:
-            failed = str(e)
-        if self.exchange.agree_failed(failed is not None):
-            raise SolveError(f"the gas pressure solve failed at step {step}, t = {t:.6g} s "
-                             f"({failed or 'on another rank'})")
+            except darcy.SolveFailed as e:
+                failed = str(e)
+            if self.exchange.agree_failed(failed is not None):
+                raise SolveError(f"the gas pressure solve failed at step {step}, t = {t:.6g} s "
+                                 f"({failed or 'on another rank'})")
+            self.j = np.ascontiguousarray(sol.centred())
+            if p + 1 < passes:
+                self._interpolate(ps)
         sol.theta, sol.V, sol.K = theta, V, K
         self.solution = sol
-        self.j = np.ascontiguousarray(j)
         self.solved_at = step
         self.solves += 1

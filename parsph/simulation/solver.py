@@ -106,12 +106,14 @@ class Simulation:
     def compute_rates(self):
         """Density, theta and accelerations of the owned particles at the current state."""
         self._sync()
-        if self.gas is not None:
-            t0 = self.clock()
-            self.gas(self.ps, self.step, self.t)
-            self.timers["gas"] += self.clock() - t0
-        self.rates(self.ps, self.ring, self.timers, self.clock)
+        self.rates(self.ps, self.ring, self.timers, self.clock, None if self.gas is None else self._gas_stage)
         self._fresh = True
+
+    def _gas_stage(self, ps):
+        """The solved gas between Eq. (3) and Eq. (5): the particles' theta of this state is known."""
+        t0 = self.clock()
+        self.gas(ps, self.step, self.t)
+        self.timers["gas"] += self.clock() - t0
 
     def _sync(self):
         """The list's sync (building it first where there is none) and what its agreed flags ask."""

@@ -63,11 +63,13 @@ class Rates:
             self._gather = pass_data.Gather(offset, entry, np.zeros(npairs), np.zeros(npairs), np.zeros(npairs))
         return self._gather
 
-    def __call__(self, ps, halo, timers=None, clock=time.perf_counter):
+    def __call__(self, ps, halo, timers=None, clock=time.perf_counter, between=None):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``halo.refresh(ps, ps.rho)`` updates the copies.
 
         Wall particles keep the rho they hold. ``timers`` (a dict) gets the
         seconds of "density", "halo" and "forces" added, read from ``clock``.
+        ``between(ps)``: a stage between Eq. (3) and Eq. (5), the particles' theta known (the solved gas:
+        :class:`parsph.simulation.gas_stage.GasStage`); its seconds are its own to count.
         """
         lst, c, sw, run = self.list, self.consts, self.switches, self._calls
         parts = pass_data.particle_arrays(ps)
@@ -85,6 +87,10 @@ class Rates:
         halo.refresh(ps, ps.rho)
         t2 = clock()
         run(factors, lst, parts, c, sw, n_own, n)
+        if between is not None:
+            t_b = clock()
+            between(ps)
+            t2 += clock() - t_b
         if gather is not None:
             run("momentum_threaded", lst, parts, c, sw, gather)
         else:

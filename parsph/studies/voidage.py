@@ -58,3 +58,38 @@ def measure(sets=(), n_times=21, t_end=None, path=WAVES):
     omega = np.polyfit(t[late], np.unwrap(np.angle(modes[late])), 1)[0]
     bed = bed_of(cfg)
     return Wave(float(growth), float(-omega / k), bed.growth_and_speed(2 * math.pi / k), t, modes)
+
+
+@dataclass
+class PeriodicBed:
+    """A box periodic along gravity in the solved gas, read at every step: the mean gradient G of p' (its
+    pressure drop per unit height), the smallest and largest theta of the grid's cells, the solids' mean
+    velocity along x."""
+    cfg: object
+    t: np.ndarray
+    gradient: np.ndarray   # [Pa/m]
+    theta_min: np.ndarray
+    theta_max: np.ndarray
+    v_mean: np.ndarray     # [m/s]
+
+    def weight(self):
+        """The solids' buoyant weight per unit volume theta_mean (rho_s - rho_g) |g| [Pa/m]: what the mean
+        gradient carries when the solids' mean momentum does not change."""
+        cfg = self.cfg
+        return cfg.theta0 * (cfg.rho_s - cfg.gas.rho) * math.sqrt(sum(x * x for x in cfg.g))
+
+
+def periodic_bed(sets=(), t_end=1.0, path=WAVES):
+    """Run a box periodic along gravity with the solved gas (run/voidage_waves.toml with ``sets``) to t_end."""
+    cfg = config.load(path, ['gas.flow="solved"', *sets, f"output.t_end={t_end!r}", f"output.times=[{t_end!r}]",
+                             "output.snapshots=false"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    rows = []
+
+    def observe(s):
+        sol = s.gas.solution
+        f = s.ps.kind[:s.ps.n_own] == FLUID
+        rows.append((s.t, s.gas.darcy.gradient, sol.theta.min(), sol.theta.max(), s.ps.vel[:s.ps.n_own][f, 0].mean()))
+    sim.run(observe=observe)
+    a = np.array(rows)
+    return PeriodicBed(cfg, *a.T)
