@@ -3,7 +3,7 @@ run/fluidized_bed.toml widened to N particles, the same steps with gas.flow = "c
 and "solved" (the Python path with the grid's solve), alternated, on one rank; prints ms a step of each,
 their ratio and the gas stage's share.
 
-    .venv/bin/python scripts/gas_bench.py --particles 20000 --steps 300 --repeat 3
+    NUMBA_NUM_THREADS=1 .venv/bin/python scripts/gas_bench.py --particles 20000 --steps 300 --repeat 3 [--gas gas.solve_every=5]
 """
 import argparse
 import json
@@ -35,14 +35,15 @@ def main():
     ap.add_argument("--particles", type=int, default=20000, help="about this many fluid particles (50 per y row)")
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--set", action="append", default=[], help="more overrides (section.key=value)")
+    ap.add_argument("--set", action="append", default=[], help="more overrides of both runs (section.key=value)")
+    ap.add_argument("--gas", action="append", default=[], help="overrides of the solved run only (gas.solve_every=5)")
     a = ap.parse_args()
     rows = max(12, a.particles // 50)
     rows += rows % 2
     out = {"column": [], "solved": [], "gas": []}
     for _ in range(a.repeat):
         for flow in ("column", "solved"):
-            step, gas, n = timed(case(flow, rows, a.set), a.steps)
+            step, gas, n = timed(case(flow, rows, a.set + (a.gas if flow == "solved" else [])), a.steps)
             out[flow].append(step)
             if flow == "solved":
                 out["gas"].append(gas)
