@@ -117,3 +117,62 @@ def test_3d_slice_is_the_middle_layer():
     z = rng.choice(levels, 1000) + rng.uniform(-1e-16, 1e-16, 1000)
     keep, mid = middle_layer(z)
     assert mid == pytest.approx(0.5e-3) and np.array_equal(keep, np.abs(z - 0.5e-3) < 1e-12)
+
+
+def layer_snapshot(scene="sedimentation", run_file=None, t=0.0):
+    """A made-up 2-D layer on the floor of a box 30 mm tall, 2.4 mm wide: fluid 12 rows across up to 20 mm,
+    wall rows below the floor and above the lid."""
+    L, Ly, dx = 0.03, 0.0024, 2e-4
+    xs = np.concatenate([np.arange(-3, 0) + 0.5, np.arange(100) + 0.5, 150 + np.arange(3) + 0.5]) * dx
+    X, Y = np.meshgrid(xs, (np.arange(12) + 0.5) * dx, indexing="ij")
+    pos = np.column_stack([X.ravel(), Y.ravel()])
+    kind = np.where(pos[:, 0] < 0, 1, np.where(pos[:, 0] > L, 1, 0)).astype(np.int8)
+    attrs = {"scene": scene, "dim": 2, "L": L, "Ly": Ly, "time": t, "V_w": 0.0}
+    if run_file is not None:
+        attrs["run_file"] = run_file
+    n = len(kind)
+    return {"id": np.arange(n), "kind": kind, "mass": np.full(n, 1e-6), "position": pos,
+            "velocity": np.zeros((n, 2)), "theta": np.full(n, 0.2), "attrs": attrs}
+
+
+@pytest.mark.parametrize("scene", ["sedimentation", "fluidized_bed"])
+def test_a_layer_is_drawn_upright(scene):
+    """A layer's picture: the height (x, from below the floor to above the lid) on the vertical axis in mm,
+    the periodic y across, the floor and lid horizontal lines; a Couette picture keeps x across."""
+    pytest.importorskip("matplotlib")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from parsph.cli.particles_plot import figure
+    snap = layer_snapshot(scene)
+    fig = figure(snap, "theta", (0.0, 0.6), heights=(0.019, 0.0185))
+    ax = fig.axes[0]
+    assert "height" in ax.get_ylabel() and "mm" in ax.get_ylabel() and "gravity down" in ax.get_ylabel()
+    assert "y" in ax.get_xlabel() and "height" not in ax.get_xlabel()
+    lo, hi = ax.get_ylim()
+    assert lo == pytest.approx(-0.5) and hi == pytest.approx(30.5)   # the wall rows' centres, in mm
+    assert ax.get_xlim() == pytest.approx((0.0, 2.4))
+    fig.canvas.draw()
+    bbox = ax.get_window_extent()
+    assert bbox.height > 5 * bbox.width        # a tall, narrow column (to scale: 31 mm by 2.4 mm)
+    horizontal = sorted(round(line.get_ydata()[0], 6) for line in ax.get_lines()
+                        if line.get_ydata()[0] == line.get_ydata()[1])
+    assert horizontal == [0.0, 18.5, 19.0, 30.0]   # floor, the SPH's and the reference's 95% heights, lid
+    plt.close(fig)
+    couette = figure({**snap, "attrs": {**snap["attrs"], "scene": "couette"}}, "theta", (0.0, 0.6))
+    ax = couette.axes[0]
+    assert ax.get_ylabel() == "y (streamwise) [mm]" and ax.get_xlabel() == "x (wall-normal) [mm]"
+    assert ax.get_ylim() == pytest.approx((0.0, 2.4))
+    plt.close(couette)
+
+
+def test_layer_reference_height_from_the_run_file():
+    """At t = 0 the reference's 95% height is 0.95 H0 (the run file's layer, 20 mm); no run file, no lines."""
+    from parsph.cli.particles_plot import layer_reference_heights
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, "run", "sedimentation.toml")) as fh:
+        snap = layer_snapshot(run_file=fh.read())
+    (t, (ref, sph)), = layer_reference_heights([snap]).items()
+    assert t == 0.0 and ref == pytest.approx(0.019) and 0.0185 < sph < 0.0195
+    assert layer_reference_heights([layer_snapshot()]) == {}
+    assert layer_reference_heights([layer_snapshot(scene="couette")]) == {}
