@@ -34,7 +34,7 @@ def entry_from_file(f, name):
     field = str(a.get("error_field", "vy"))
     g = f["profile"]
     return snapshot_entry(name, a["time"], "particles" in f, a["n_particles"], a["dim"], field,
-                          a.get("error_scale", a["V_w"]), a["L"], g[field + "_exact"][()],
+                          a["error_scale"] if "error_scale" in a else a["V_w"], a["L"], g[field + "_exact"][()],
                           g.attrs["err_max"], g.attrs["err_rms"])
 
 
