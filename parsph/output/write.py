@@ -32,6 +32,16 @@ class Frame:
     fields: dict
 
 
+def _scales(cfg):
+    """The scene's own scales among a file's root attributes: a layer on the floor's H0 [m], U, U_mf [m/s] and
+    dp_bed [Pa] (:func:`parsph.setup.scenes.layer.file_attributes`), a channel's or a box's V_w [m/s] and
+    nu [m^2/s]."""
+    if cfg.scene.free_surface:
+        from parsph.setup.scenes import layer
+        return layer.file_attributes(cfg)
+    return {"V_w": cfg.V_w, "nu": cfg.nu}
+
+
 def output_name(stem, k):
     return f"{stem}_{k:04d}.h5"
 
@@ -49,6 +59,7 @@ class Output:
         self.dxpl = collective_dxpl() if self.parallel else None
         self.root = comm.rank == 0
         self.index = first_index
+        self.scales = _scales(cfg)
         if not self.parallel and comm.size > 1 and self.root:
             why = (f"{SERIAL_ENV}={os.environ[SERIAL_ENV]} forces serial HDF5" if h5py.get_config().mpi
                    else "h5py has no MPI support")
@@ -90,7 +101,7 @@ class Output:
                 "parsph_version": __version__, "run_file": cfg.text,
                 "scene": cfg.values["scene"]["name"], "dim": cfg.dim, "n_particles": self.N,
                 "ranks": comm.size, "time": frame.t, "step": frame.step, "index": self.index,
-                "dt": frame.dt, "L": cfg.L, "Ly": cfg.Ly, "V_w": cfg.V_w, "nu": cfg.nu,
+                "dt": frame.dt, "L": cfg.L, "Ly": cfg.Ly, **self.scales,
                 "kinds": "0 fluid, 1 fixed wall, 2 moving wall", "units": "SI: m, s, kg, m/s",
                 "snapshot": bool(snapshot), "error_field": field, "error_scale": scale,
             })

@@ -85,6 +85,10 @@ def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, pr
     sim = agree(comm, lambda: Simulation(cfg, comm, state=state))
     if not cfg.dt_auto and cfg.dt > min(cfg.limits.values()):
         say(f"parsph: warning: dt = {cfg.dt:g} s is above the stability limit {min(cfg.limits.values()):.3g} s")
+    if cfg.scene.free_surface:
+        from parsph.setup.scenes import layer
+        for line in layer.wallis_warnings(cfg):
+            say(line)
     say(banner(cfg, sim, comm, state, out_dir, stem))
     if not sim.native:
         say(f"parsph: note: the step's messages go through mpi4py, step by step ({sim.native_why})")
@@ -103,13 +107,19 @@ def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, pr
 
 
 def banner(cfg, sim, comm, state, out_dir, stem):
-    """The line a run starts with: scene, particles, ranks, steps, Re, nu and where the outputs go."""
+    """What a run starts with: scene, particles, ranks, steps and where the outputs go, with the scene's scales:
+    Re and nu in one line (a channel, a box), or for a layer on the floor (sedimentation, fluidized_bed) two more
+    lines of its own (:func:`parsph.setup.scenes.layer.describe`: theta0, H0, u_t, tau, U, U_mf, Wallis's
+    margin), where Re = V_w L / nu would read like a particle Reynolds number and mean nothing."""
     steps = f"dt = {cfg.dt:.4g} s, {cfg.nsteps} steps" if not cfg.dt_auto else \
         f"dt auto ({cfg.dt:.4g} s at theta0, the {min(cfg.limits, key=cfg.limits.get)} limit; recomputed every step)"
     start = f" from t = {sim.t:g} s (step {sim.step})" if state is not None else ""
-    return (f"parsph {cfg.values['scene']['name']}: {sim.n_total} particles on {comm.size} rank(s), "
-            f"{steps} to t = {cfg.t_end:g} s{start}; "
-            f"Re = {cfg.reynolds:.4g}, nu = {cfg.nu:.4g} m^2/s -> {out_dir}/{stem}_NNNN.h5")
+    head = (f"parsph {cfg.values['scene']['name']}: {sim.n_total} particles on {comm.size} rank(s), "
+            f"{steps} to t = {cfg.t_end:g} s{start}")
+    if cfg.scene.free_surface:
+        from parsph.setup.scenes import layer
+        return "\n".join([f"{head} -> {out_dir}/{stem}_NNNN.h5"] + layer.describe(cfg))
+    return f"{head}; Re = {cfg.reynolds:.4g}, nu = {cfg.nu:.4g} m^2/s -> {out_dir}/{stem}_NNNN.h5"
 
 
 def max_ranks(cfg):

@@ -19,13 +19,14 @@ The references are docs/physics.md's 3 and 4 (:mod:`parsph.physics.gas_reference
 solution) and the whole transient between them (:mod:`parsph.physics.consolidation`), built once per run's
 values (cached).
 """
+from dataclasses import dataclass
 from functools import lru_cache
 import math
 
 import numpy as np
 
 from parsph.errors import ConfigError
-from parsph.physics import consolidation, gas_references as refs
+from parsph.physics import consolidation, gas_references as refs, limits, voidage_waves
 from parsph.sph.particles import FLUID
 from . import lattice
 
@@ -143,3 +144,96 @@ def check(cfg, scene):
 def max_kinetic_energy(cfg, fluid_mass):
     """At most all the potential energy: every particle falling from the lid to the floor."""
     return fluid_mass * abs(cfg.g[0]) * cfg.L
+
+
+# ---- what a layer says about itself: the banner of `parsph run` and the output files' root attributes ----
+RANDOM_CLOSE_PACKING = 0.64  # theta of randomly packed equal spheres: no bed of them is denser
+
+
+@dataclass(frozen=True)
+class Numbers:
+    """A layer's own scales (SI): theta0, H0 (the lattice's layer height), U, the buoyant weight's pressure
+    drop theta0 (rho_s - rho_g) |g| H0 across the layer, and with a gas: Stokes's terminal velocity u_t, the
+    drag time tau at theta0 (along the column, at the slip that carries the weight:
+    refs.settling_relaxation_time), Ergun's minimum fluidisation velocity U_mf at theta0
+    (refs.minimum_fluidization_velocity), and Wallis's two wave speeds (:class:`voidage_waves.Bed`) at
+    ``theta_wallis`` (a fed bed's uniform interior theta*, else theta0): the elastic c_d = sqrt(p_s'/rho_s)
+    and the kinematic c_k of the run's closure. Without a gas those are NaN."""
+    theta0: float
+    H0: float
+    U: float
+    dp_bed: float
+    u_t: float = math.nan
+    tau: float = math.nan
+    U_mf: float = math.nan
+    theta_wallis: float = math.nan
+    c_d: float = math.nan
+    c_k: float = math.nan
+
+    @property
+    def packed_past(self):
+        """theta0 above random close packing: outside the physical range (the model runs it)."""
+        return self.theta0 > RANDOM_CLOSE_PACKING
+
+    @property
+    def past_wallis(self):
+        """The kinematic wave outruns the elastic one: a uniform layer does not stay uniform."""
+        return self.c_k > self.c_d
+
+
+def numbers(cfg):
+    """The layer's :class:`Numbers` (a few root-finds: computed per call, not in the step)."""
+    gas, H0 = cfg.gas, layer_height(cfg)
+    if gas is None:
+        return Numbers(cfg.theta0, H0, 0.0, cfg.theta0 * cfg.rho_s * abs(cfg.g[0]) * H0)
+    ph = phases(cfg)
+    theta = cfg.theta0
+    if gas.U > 0:
+        theta = end_state(cfg).theta_star
+    bed = voidage_waves.Bed(theta, cfg.rho_s, gas.rho, gas.mu, gas.d, ph.g, cfg.k * theta,
+                            limits.dpressure(theta, cfg.G_a, cfg.G_b, form(cfg)), gas.model)
+    return Numbers(cfg.theta0, H0, gas.U, cfg.theta0 * ph.buoyant * H0, u_t=ph.u_t,
+                   tau=refs.settling_relaxation_time(cfg.theta0, ph),
+                   U_mf=refs.minimum_fluidization_velocity(cfg.theta0, ph), theta_wallis=theta,
+                   c_d=bed.elastic_speed(), c_k=bed.kinematic_speed())
+
+
+def file_attributes(cfg):
+    """The layer's own root attributes of an output file: H0 [m], U, U_mf [m/s] (NaN without a gas) and
+    dp_bed [Pa], the pressure drop across the layer at its buoyant weight theta0 (rho_s - rho_g) |g| H0."""
+    gas, H0 = cfg.gas, layer_height(cfg)
+    buoyant = phases(cfg).buoyant
+    U_mf = refs.minimum_fluidization_velocity(cfg.theta0, phases(cfg)) if gas is not None else math.nan
+    return {"H0": H0, "U": gas.U if gas is not None else 0.0, "U_mf": U_mf, "dp_bed": cfg.theta0 * buoyant * H0}
+
+
+def describe(cfg):
+    """The banner's lines about the layer (after its first line): its scales, and Wallis's margin."""
+    n = numbers(cfg)
+    packed = (f" (past random close packing, {RANDOM_CLOSE_PACKING:g}: outside the physical range)"
+              if n.packed_past else "")
+    head = f"  layer: theta0 = {n.theta0:.4g}{packed}, H0 = {n.H0:.4g} m"
+    if cfg.gas is None:
+        return [f"{head}; no gas: it falls under gravity alone"]
+    ratio = f"{n.U / n.U_mf:.4g}" if n.U_mf > 0 else "inf"
+    where = "theta*" if n.U > 0 else "theta0"
+    verdict = "past Wallis's bound: a uniform layer is unstable to voidage waves" if n.past_wallis else "stable"
+    return [f"{head}; u_t = {n.u_t:.4g} m/s (Stokes), tau = {n.tau:.4g} s (the drag time at theta0); "
+            f"U = {n.U:.4g} m/s, U_mf = {n.U_mf:.4g} m/s (Ergun at theta0), U/U_mf = {ratio}",
+            f"  Wallis at {where} = {n.theta_wallis:.4g}: elastic c_d = {n.c_d:.4g} m/s, kinematic "
+            f"c_k = {n.c_k:.4g} m/s, c_d/c_k = {n.c_d / n.c_k:.4g} ({verdict})"]
+
+
+def wallis_warnings(cfg):
+    """One line for a bed (fed at U > 0) past Wallis's bound in the one-dimensional gas (gas.flow = "column"):
+    it would bubble and slug, which that gas cannot describe; the solved gas can."""
+    gas = cfg.gas
+    if gas is None or not gas.column or not gas.U > 0:
+        return []
+    n = numbers(cfg)
+    if not n.past_wallis:
+        return []
+    return [f"parsph: warning: the bed is past Wallis's bound at theta* = {n.theta_wallis:.4g}: the kinematic "
+            f"wave speed c_k = {n.c_k:.4g} m/s exceeds the elastic c_d = {n.c_d:.4g} m/s, so it does not stay "
+            f"uniform (voidage waves, slugs), which the one-dimensional gas (gas.flow = \"column\") cannot "
+            f"describe: give gas.flow = \"solved\""]
