@@ -13,7 +13,8 @@ every earlier output whole and readable, and every output file with particles
 is a restart point. In a file:
 
     /                      attrs: parsph_version, run_file (TOML), scene, dim, n_particles, ranks,
-                                  time, step, index, dt, L, Ly, V_w, nu, integrator state
+                                  time, step, index, dt, L, Ly, the scene's scales (a channel's or a
+                                  box's V_w, nu; a layer's H0, U, U_mf, dp_bed), kinds, units, snapshot
     /profile/x             (Nx,)          bin centres [m]
     /profile/vy, theta     (Nx,)          mean v_y [m/s] and theta of the fluid particles per bin
     /profile/count         (Nx,)          fluid particles per bin
