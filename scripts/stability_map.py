@@ -30,7 +30,6 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 # one process, one core: numba's threads would only contend (a run of 260 particles
 # took 31 ms a step with 2 threads on the loaded 2-core machine, 2.4 ms with 1)
 os.environ.setdefault("NUMBA_NUM_THREADS", "1")

@@ -29,7 +29,6 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
-sys.path.insert(0, ROOT)
 
 from parsph.studies import sweep  # noqa: E402
 from parsph.studies.sweep_report import write_report  # noqa: E402

@@ -17,7 +17,6 @@ import time
 
 T0_CPU, T0_WALL = time.process_time(), time.perf_counter()
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 
 
 def main():

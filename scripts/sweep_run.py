@@ -11,8 +11,6 @@ import json
 import os
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 if "--code" in sys.argv:  # a snapshot of parsph (scripts/sweep.py makes one), ahead of the working tree
     sys.path.insert(0, os.path.abspath(sys.argv[sys.argv.index("--code") + 1]))
 
