@@ -406,10 +406,7 @@ def test_converge_bad_input_is_one_line(tmp_path, cli, args, words):
 def test_converge_on_two_ranks_matches_one(tmp_path):
     """Every level runs on the communicator converge was started on: 2 ranks give the
     1-rank profiles, so the same orders and estimates (to round-off of the reductions)."""
-    import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-    import launch
+    from mpi_helpers import launch
     if launch.under_mpirun():
         pytest.skip("launches mpirun itself")
     # L_y = 2 cm: the coarsest level's h = 2.5 dx = 2.1 mm needs slabs of about 1.5 (2h + skin) = 7.5 mm

@@ -20,9 +20,7 @@ names the wrong particle, misses the theta range, or lets a particle jump a slab
 """
 import math
 import re
-import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,8 +34,7 @@ from parsph.simulation.solver import Simulation
 
 from conftest import PAPER_TOML
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 
 needs_mpirun = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself")
 L = 0.01

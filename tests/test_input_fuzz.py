@@ -52,7 +52,6 @@ import math
 import os
 import resource
 import shutil
-import sys
 import tempfile
 import tomllib
 from collections import Counter
@@ -63,8 +62,7 @@ import pytest
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
-import common as C  # noqa: E402
+from reliability_helpers import common as C  # noqa: E402
 
 from parsph.setup import config  # noqa: E402
 from parsph.setup.runfile import RunFile  # noqa: E402

@@ -41,16 +41,13 @@ a slow, loaded CI machine. ``scripts/signal_timing.py`` measures the times.
 """
 import os
 import re
-import sys
 import time
-from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
-import common as C  # noqa: E402
+from reliability_helpers import common as C  # noqa: E402
 
 launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
 

@@ -4,9 +4,7 @@ Serial: run with plain pytest. The one test that needs several ranks launches
 ``mpirun`` itself and is skipped inside an mpirun job (nested mpirun fails).
 """
 import math
-import sys
 import types
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +15,7 @@ from parsph.parallel.slab_ring import SlabRing
 from parsph.parallel.slabs import fits, max_ranks, slab_bounds
 from parsph.sph.cells import CELLS_PER_CUTOFF, Grid
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 
 H = 2.5e-4          # the paper's smoothing length [m]
 

@@ -10,14 +10,11 @@ catch). No test asserts how fast a job ends: a healthy one ends in seconds, and
 the guard is set for a slow, loaded CI machine.
 """
 import re
-import sys
-from pathlib import Path
 
 import h5py
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 
 pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 

@@ -11,7 +11,6 @@ Each run writes one file per output time, ``<stem>_NNNN.h5`` (written as
 The particle data are written with collective I/O (test_mpi_collective_io.py
 checks the transfer mode itself) and ordered by y-bin within each rank's rows.
 """
-import sys
 from pathlib import Path
 
 import h5py
@@ -20,8 +19,7 @@ import pytest
 
 from parsph import output
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 from xdmf_check import check_sidecar  # noqa: E402
 
 pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")

@@ -14,13 +14,11 @@ that compiles prints. numba keeps at most NUMBA_FUNCTION_CACHE_SIZE (default
 the shared cache reaches after ~128 runs.
 """
 import re
-import sys
 from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 
 from parsph.cli.progress import COMPILING  # noqa: E402
 

@@ -40,9 +40,8 @@ import pytest
 
 from parsph.sph.particles import FLUID
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
-from scene_ranks import CASES, differences, idle_wait, load, run_scene, state  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
+from mpi_helpers.scene_ranks import CASES, differences, idle_wait, load, run_scene, state  # noqa: E402
 
 HELPER = Path(__file__).resolve().parent / "mpi_helpers" / "scene_ranks.py"
 WATCHDOG_S = 240

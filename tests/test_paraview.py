@@ -18,8 +18,6 @@ ParaView in test_xdmf.py.
 import random
 import re
 import shutil
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,8 +25,7 @@ import pytest
 from parsph import output
 from parsph.physics.analytic import couette_velocity
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 
 SCRIPT = launch.REPO / "scripts" / "paraview_check.py"
 pytestmark = [pytest.mark.skipif(shutil.which("pvpython") is None, reason="pvpython not installed"),

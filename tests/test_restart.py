@@ -19,16 +19,13 @@ integrator, the midpoint integrator and numerics.dt = "auto".
 import hashlib
 import os
 import shutil
-import sys
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "reliability_helpers"))
-import common as C  # noqa: E402
+from reliability_helpers import common as C  # noqa: E402
 
 launches = pytest.mark.skipif(C.under_mpirun(), reason="launches parsph/mpirun itself (nested mpirun fails)")
 

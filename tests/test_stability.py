@@ -19,9 +19,7 @@ in tests/test_guards.py.
 import math
 import os
 import re
-import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -37,8 +35,7 @@ from parsph.simulation.solver import Simulation
 
 from conftest import PAPER_TOML, run_cli
 
-sys.path.insert(0, str(Path(__file__).resolve().parent / "mpi_helpers"))
-import launch  # noqa: E402
+from mpi_helpers import launch  # noqa: E402
 
 STEPS = 2000
 THETA_FRAC = 0.2

@@ -21,15 +21,12 @@ Notes on the environment:
 import os
 import signal
 import subprocess
-import sys
 import threading
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "mpi_helpers"))
-from launch import MPI_ENV as _LAUNCH_ENV, PAPER, PYTHON, REPO, private_cache_dir, under_mpirun  # noqa: E402,F401
+from mpi_helpers.launch import MPI_ENV as _LAUNCH_ENV, PAPER, PYTHON, REPO, private_cache_dir, under_mpirun  # noqa: E402,F401
 
 STEM = "couette_paper"
 DT = 1e-5  # the paper's time step
