@@ -16,9 +16,9 @@ import sys
 import tempfile
 import time
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests",
-                                "reliability_helpers"))
-import common as C  # noqa: E402
+# the test helpers are no installed package: tests/ on the path, as pytest puts it
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
+from reliability_helpers import common as C  # noqa: E402
 
 LONG = (*C.SHORT, "output.t_end=0.5", "output.times=[0.5]", "output.progress_interval=0.05")
 
