@@ -210,7 +210,7 @@ NEED_DRAG = {"gas.rho", "gas.mu", "gas.flow", "gas.velocity", "gas.U"}
 NEED_LAYER = {"scene.height"}
 # the solved gas's grid keys are refused without gas.flow = "solved", and a perturbation's two keys each without
 # the other; restart_state compares them like every key outside [output] and [checks]
-NEED_SOLVED = {"gas.cell", "gas.K_max", "gas.solve_every"}
+NEED_SOLVED = {"gas.cell", "gas.K_max", "gas.solve_every", "gas.jet"}
 NEED_PAIR = {"perturbation.amplitude", "perturbation.wavelength"}
 FREE_CHANGES = {
     "output.t_end": "0.01",

@@ -222,6 +222,10 @@ BED_TOML = (layers.BED.read_text())
     (['gas.flow="solved"', "gas.K_max=0.0"], "gas.K_max"),
     (['gas.flow="solved"', "scene.dim=3", "body_force.g=[-9.81, 0.0, 0.0]"], "scene.dim"),
     (['gas.flow="solved"', "body_force.g=[9.81, 0.0]"], "body_force.g"),
+    (['gas.flow="column"', "gas.jet=[0.0, 0.001, 0.1]"], "gas.jet"),
+    (['gas.flow="solved"', "gas.jet=[0.0, 0.1]"], "gas.jet"),
+    (['gas.flow="solved"', "gas.jet=[0.002, 0.001, 0.1]"], "gas.jet"),
+    (['gas.flow="solved"', "gas.jet=[0.0, 0.001, -0.1]"], "gas.jet"),
 ])
 def test_solved_gas_keys_are_checked(sets, key):
     with pytest.raises(ConfigError) as e:
@@ -278,3 +282,17 @@ def test_voidage_waves_root_solves_the_quadratic():
     residual = bed.theta0 * bed.rho_s * s * s + (bed.theta0 * bed.mu_s * k * k + B) * s \
         + 1j * k * bed.theta0 * f_theta + k * k * bed.theta0 * bed.dp
     assert abs(residual) < 1e-9 * (B * abs(s) + k * k * bed.theta0 * bed.dp)
+
+
+def test_a_jet_feeds_its_faces_and_the_gas_leaves_through_the_lid():
+    """gas.jet: the floor faces under it fed at U_jet, the rest at U; the gas through the lid is the sum."""
+    cfg = layers.load(layers.BED, ['gas.flow="solved"', "domain.Ly=0.0048", "gas.jet=[0.0016, 0.0032, 0.05]",
+                                   "output.t_end=0.001", "output.times=[0.001]", "output.snapshots=false"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    sim.take_steps(2)
+    g, sol = sim.gas.grid, sim.gas.solution
+    y = (np.arange(g.ny) + 0.5) * g.hy
+    under = (y >= 0.0016) & (y < 0.0032)
+    assert under.sum() == 2 and np.allclose(sol.jx[0][under], 0.05) and np.allclose(sol.jx[0][~under], cfg.gas.U)
+    assert sol.jx[-1].sum() == pytest.approx(sol.jx[0].sum(), rel=1e-9)  # what comes in leaves at the top
+    assert sol.jy.std() > 0  # the jet spreads sideways

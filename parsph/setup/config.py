@@ -66,6 +66,7 @@ class Gas:
     sign: float        # column, solved: e = sign * unit(axis)
     implicit: bool     # numerics.drag_update
     cell: float = 0.0         # solved: the grid's cell size [m]
+    jet: tuple = ()           # solved: (y0, y1, U_jet) fed through the floor there instead of U
     K_max: float = 0.0        # solved: the cap of K in the pressure solve [m^2/(Pa s)]
     solve_every: int = 1      # solved: steps between pressure solves
 
@@ -274,7 +275,7 @@ def _body_force(v, dim, scene):
 def _gas(v, dim, g, rho_s):
     """The run's Gas, or None with gas.drag = "none" (then no other gas key may be given)."""
     gas = v["gas"]
-    given = [key for key in ("rho", "mu", "flow", "velocity", "U", "cell", "K_max", "solve_every")
+    given = [key for key in ("rho", "mu", "flow", "velocity", "U", "cell", "K_max", "solve_every", "jet")
              if gas[key] is not None]
     if gas["drag"] == "none":
         if given:
@@ -366,7 +367,7 @@ def _solved_gas(v, dim, g, flow, gas):
     """The solved gas's grid keys (cell, K_max, solve_every); they belong to it alone. K_max's default is
     left 0 here and set from K(theta0) by :func:`solved_cap`."""
     if flow != "solved":
-        for key in ("cell", "K_max", "solve_every"):
+        for key in ("cell", "K_max", "solve_every", "jet"):
             if gas[key] is not None:
                 raise ConfigError(f"gas.{key}", f'belongs to the solved gas: give gas.flow = "solved" (not "{flow}")')
         return {}
@@ -376,8 +377,21 @@ def _solved_gas(v, dim, g, flow, gas):
     if not (g[0] < 0.0 and g[1] == 0.0):
         where = "through the floor at x = 0" if scene.walls else "along the periodic x at the mean flux gas.U"
         raise ConfigError("body_force.g", f"the solved gas is fed {where}: give gravity along -x, got {list(g)}")
+    jet = ()
+    if gas["jet"] is not None:
+        if not scene.walls:
+            raise ConfigError("gas.jet", f"feeds the floor; the {scene.name} scene has none (x is periodic)")
+        if len(gas["jet"]) != 3:
+            raise ConfigError("gas.jet", f"is [y0, y1, U_jet], got {len(gas['jet'])} numbers")
+        y0, y1, U_jet = (float(x) for x in gas["jet"])
+        Ly = v["domain"]["Ly"] if v["domain"]["Ly"] is not None else v["domain"]["L"]
+        if not 0.0 <= y0 < y1 <= Ly:
+            raise ConfigError("gas.jet", f"needs 0 <= y0 < y1 <= domain.Ly = {Ly:g} m, got y0 = {y0:g}, y1 = {y1:g}")
+        if not U_jet >= 0.0:
+            raise ConfigError("gas.jet", f"U_jet = {U_jet:g} m/s: the floor feeds gas, U_jet >= 0")
+        jet = (y0, y1, U_jet)
     return dict(cell=float(gas["cell"] or 0.0), K_max=float(gas["K_max"] or 0.0),
-                solve_every=int(gas["solve_every"] or 1))
+                solve_every=int(gas["solve_every"] or 1), jet=jet)
 
 
 def _solved_grid(gas, lat, walls):

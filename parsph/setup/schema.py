@@ -106,6 +106,9 @@ SCHEMA = {
                      doc="solved: the cap of the gas's permeability K = eps^2 / beta in the pressure solve "
                          "[m^2/(Pa s)] (default 1000 K(theta0): a void carries 2 kappa U / (1 + kappa), within "
                          "0.1% of 2 U)"),
+        "jet": Key("floatlist", None,
+                   doc="solved, with walls: [y0, y1, U_jet]: the floor faces whose centres lie in y0 <= y < y1 "
+                       "fed at U_jet [m/s] instead of gas.U (an orifice; a profile U(y))"),
         "solve_every": Key("int", None, lo=1, hi=10 ** 6,
                            doc="solved: the pressure solved every n steps, its flux interpolated to the particles "
                                "every step (default 1)"),

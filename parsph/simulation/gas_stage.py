@@ -50,6 +50,16 @@ def drag_rates(theta, vel, flux, kind, n_own, with_slip, model, rho_s, rho_g, mu
         out[k] = rate(model, theta[k], slip2, rho_s, rho_g, mu_g, d) / e
 
 
+def floor_flux(grid, gas):
+    """The gas fed through each floor face [m/s]: U, and U_jet where the face's centre lies under gas.jet."""
+    U = np.full(grid.ny, gas.U)
+    if gas.jet:
+        y0, y1, U_jet = gas.jet
+        y = (np.arange(grid.ny) + 0.5) * grid.hy
+        U[(y >= y0) & (y < y1)] = U_jet
+    return U
+
+
 class GasStage:
     def __init__(self, cfg, comm, ps):
         gas = cfg.gas
@@ -63,8 +73,8 @@ class GasStage:
             permeability(np.array([cfg.theta0]), 0.0, gas.model, gas.rho, gas.mu, gas.d, np.inf)[0])
         theta0 = cfg.theta0
         self.rate_ref = rate(gas.model, theta0, 0.0, cfg.rho_s, gas.rho, gas.mu, gas.d) / (1.0 - theta0)
-        if g.walls:  # the floor fed at U, the lid open (p' = 0); y periodic
-            self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", np.full(g.ny, gas.U)),
+        if g.walls:  # the floor fed at U (U_jet under a jet), the lid open (p' = 0); y periodic
+            self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", floor_flux(g, gas)),
                                                               darcy.Side("pressure", np.zeros(g.ny))), None)
         else:  # periodic along gravity: the mean flux U through every cross-section
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, None, None, mean_flux=gas.U)
