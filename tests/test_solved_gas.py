@@ -296,3 +296,28 @@ def test_a_jet_feeds_its_faces_and_the_gas_leaves_through_the_lid():
     assert under.sum() == 2 and np.allclose(sol.jx[0][under], 0.05) and np.allclose(sol.jx[0][~under], cfg.gas.U)
     assert sol.jx[-1].sum() == pytest.approx(sol.jx[0].sum(), rel=1e-9)  # what comes in leaves at the top
     assert sol.jy.std() > 0  # the jet spreads sideways
+
+
+def test_a_failed_solve_is_one_line_naming_step_and_time():
+    """A solve without a finite answer ends every rank alike with SolveError (step and time named), which the
+    command reports in one line with the exit code of a failed check (3)."""
+    from parsph.cli.exits import EXIT_GUARD
+    from parsph.cli.world import reporting
+    from parsph.errors import SolveError
+    cfg = layers.load(layers.BED, ['gas.flow="solved"', "output.t_end=0.01", "output.times=[0.01]",
+                                   "output.snapshots=false"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    sim.take_steps(3)
+
+    class Singular:  # what darcy.Darcy raises where LAPACK or SuperLU finds no answer
+        def solve(self, K, V):
+            raise darcy.SolveFailed("the pressure is not finite")
+    sim.gas.darcy = Singular()
+    with pytest.raises(SolveError) as e:
+        sim.take_steps(1)
+    msg = str(e.value)
+    assert "\n" not in msg and f"step {sim.step}" in msg and f"t = {sim.t:.6g} s" in msg
+
+    def failing():
+        raise SolveError(msg)
+    assert reporting(MPI.COMM_SELF, failing) == EXIT_GUARD
