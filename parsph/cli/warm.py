@@ -84,6 +84,11 @@ SUITE = [
     ("fluidized_bed.toml", ["numerics.dt=5e-5"], 1),
     ("fluidized_bed.toml", ["numerics.dt=5e-5"], 2),
     ("fluidized_bed.toml", ["numerics.dt=1e-4", "numerics.integrator=midpoint"], 1),
+    # the solved gas (the Python path's passes, the grid's loops): scene_ranks' bed (1 thread and 2), the voidage
+    # waves of test_solved_gas_runs (a box periodic along gravity)
+    ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 1),
+    ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 2),
+    ("voidage_waves.toml", ['gas.flow="solved"'], 1),
 ]
 QUEUE = "PARSPH_WARM_QUEUE"  # a worker's shared folder: the lock, the next case, the results
 
