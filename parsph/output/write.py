@@ -33,12 +33,12 @@ class Frame:
 
 
 def _scales(cfg):
-    """The scene's own scales among a file's root attributes: a layer on the floor's H0 [m], U, U_mf [m/s] and
-    dp_bed [Pa] (:func:`parsph.setup.scenes.layer.file_attributes`), a channel's or a box's V_w [m/s] and
-    nu [m^2/s]."""
-    if cfg.scene.free_surface:
-        from parsph.setup.scenes import layer
-        return layer.file_attributes(cfg)
+    """The scene's own scales among a file's root attributes: what the scene says of itself where it says
+    (``cfg.scene.file_attributes``: a layer on the floor's H0 [m], U, U_mf [m/s] and dp_bed [Pa]), else a
+    channel's or a box's V_w [m/s] and nu [m^2/s]. The scene is the run's value: this layer imports none."""
+    own = getattr(cfg.scene, "file_attributes", None)
+    if own is not None:
+        return own(cfg)
     return {"V_w": cfg.V_w, "nu": cfg.nu}
 
 

@@ -54,6 +54,8 @@ class Scene:
     check: Optional[Callable] = None
     # a layer on the floor under clear gas (fluid up to scene.height, nothing above it but the lid)
     free_surface: bool = False
+    # file_attributes(cfg) -> the scene's own quantities among an output file's root attributes (None: V_w, nu)
+    file_attributes: Optional[Callable] = None
 
 
 def get_scene(name):
