@@ -176,3 +176,14 @@ def test_layer_reference_height_from_the_run_file():
     assert t == 0.0 and ref == pytest.approx(0.019) and 0.0185 < sph < 0.0195
     assert layer_reference_heights([layer_snapshot()]) == {}
     assert layer_reference_heights([layer_snapshot(scene="couette")]) == {}
+
+
+def test_3d_slice_keeps_a_level_drifted_by_round_off():
+    """A settled 3-D layer's particles drift in z by round-off (1e-10 m here, beyond 12 decimals): the slice
+    is still the whole middle level, not the one particle that kept its z exactly."""
+    rng = np.random.default_rng(3)
+    levels = np.array([0.1, 0.3, 0.5, 0.7, 0.9]) * 1e-3
+    lv = rng.choice(levels, 1000)
+    z = lv + rng.uniform(-1e-10, 1e-10, 1000)
+    keep, mid = middle_layer(z)
+    assert mid == pytest.approx(0.5e-3, abs=1e-9) and np.array_equal(keep, lv == 0.5e-3)

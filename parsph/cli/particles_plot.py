@@ -33,8 +33,13 @@ def field_values(snap, field):
 def middle_layer(z):
     """Rows of the particles in the z-layer nearest the middle of their z range (a 3-D slice)."""
     levels = np.unique(np.round(z, 12))
+    span = levels[-1] - levels[0]
+    # levels a hair apart (a layer's particles drifted in z by round-off) are one lattice level
+    levels = levels[np.r_[True, np.diff(levels) > 1e-3 * span]] if span > 0 else levels
     mid = levels[np.argmin(np.abs(levels - 0.5 * (levels[0] + levels[-1])))]
-    return np.abs(z - mid) <= 1e-9 * max(1.0, abs(mid)), mid
+    if levels.size < 2:
+        return np.abs(z - mid) <= 1e-9 * max(1.0, abs(mid)), mid
+    return np.abs(z - mid) < 0.25 * float(np.min(np.diff(levels))), mid
 
 
 def snapshot_files(path, times):
