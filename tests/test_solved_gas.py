@@ -21,7 +21,7 @@ from mpi4py import MPI
 
 from parsph.errors import ConfigError
 from parsph.gas import darcy, deposit
-from parsph.gas.permeability import permeability
+from parsph.gas import permeability
 from parsph.physics import inclusion
 from parsph.physics import drag
 from parsph.physics.drag import STOKES
@@ -200,12 +200,14 @@ def test_linear_fields_are_interpolated_exactly_inside():
 
 
 def test_permeability_is_stokes_closed_form_and_capped():
+    """K of a uniform state from the particles' drag rate C (Stokes) is d^2 eps^4.65 / (18 mu theta); the cap."""
     theta = np.array([0.05, 0.2, 0.45, 0.6])
-    mu, d = 1e-3, 3e-4
-    K = permeability(theta, 0.0, STOKES, 1000.0, mu, d, np.inf)
+    mu, d, rho_s = 1e-3, 3e-4, 2500.0
+    C = np.array([drag.rate(STOKES, t, 0.0, rho_s, 1000.0, mu, d) / (1 - t) for t in theta])
+    K = permeability.of_uniform(theta, C, rho_s)
     assert np.allclose(K, d * d * (1 - theta) ** 4.65 / (18 * mu * theta), rtol=1e-12)
-    capped = permeability(np.array([0.0, 1e-9, 0.3]), 0.0, STOKES, 1000.0, mu, d, 1e-3)
-    assert capped[0] == capped[1] == 1e-3 and capped[2] < 1e-3
+    capped = permeability.from_resistance(np.array([0.0, 1e-9, 2e3]), 1e-3)
+    assert capped[0] == capped[1] == 1e-3 and capped[2] == pytest.approx(5e-4)
 
 
 # ---- the keys ----------------------------------------------------------------------------------------------

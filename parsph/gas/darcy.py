@@ -54,13 +54,9 @@ class Solution:
         return np.stack([0.5 * (self.jx[:-1] + self.jx[1:]), 0.5 * (self.jy[:, :-1] + self.jy[:, 1:])], axis=-1)
 
 
-def harmonic(a, b):
-    """The face value of K between two cells: 2 a b / (a + b)."""
-    return 2.0 * a * b / (a + b)
-
-
 @njit(cache=True, inline="always")
 def _harm(a, b):
+    """The face value of K between two cells: 2 a b / (a + b)."""
     return 2.0 * a * b / (a + b)
 
 

@@ -109,12 +109,6 @@ def resistance_of(sums, rho_s, rate_ref):
     return R, V
 
 
-def fields_of(sums, grid, theta_min=1e-6):
-    """theta (nx, ny) and the solids' velocity V (nx, ny, 2) from the summed fixed-point deposits; V = 0
-    where theta < ``theta_min`` (no solids)."""
-    theta = sums[0] / SCALE
-    flux = np.stack([sums[1] / SCALE, sums[2] / SCALE], axis=-1)
-    solid = theta >= theta_min
-    V = np.zeros_like(flux)
-    V[solid] = flux[solid] / theta[solid][:, None]
-    return theta, V
+def theta_of(sums):
+    """theta per cell (nx, ny) from the summed fixed-point deposits."""
+    return sums[0] / SCALE

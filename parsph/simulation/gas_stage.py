@@ -20,34 +20,14 @@ is the column closure's (docs/physics.md, "How parsph solves it").
 Every rank solves the same grid (the sums are exact), so every rank count gives the same bits.
 """
 import numpy as np
-from numba import njit
 
 from parsph.errors import SolveError
-from parsph.gas import darcy, deposit
+from parsph.gas import darcy, deposit, permeability
 from parsph.gas.grid import grid_of
-from parsph.gas.permeability import permeability
 from parsph.parallel.grid_sum import GridSum
 from parsph.physics.drag import STOKES, rate
 from parsph.setup.config import K_MAX_FACTOR
-from parsph.sph.particles import FLUID
-
-
-@njit(cache=True, error_model="numpy")
-def drag_rates(theta, vel, flux, kind, n_own, with_slip, model, rho_s, rho_g, mu_g, d, out):
-    """out[k] = C_k = K(theta_k, |j_k - v_k|^2 / eps_k^2) / eps_k [1/s] of the owned fluid particles (the
-    solved gas's drag rate along every axis; slip 0 unless ``with_slip``)."""
-    for k in range(n_own):
-        if kind[k] != FLUID:
-            out[k] = 0.0
-            continue
-        e = 1.0 - theta[k]
-        slip2 = 0.0
-        if with_slip:
-            for c in range(vel.shape[1]):
-                s = flux[k, c] - vel[k, c]
-                slip2 += s * s
-            slip2 /= e * e
-        out[k] = rate(model, theta[k], slip2, rho_s, rho_g, mu_g, d) / e
+from parsph.sph import equations, pass_data
 
 
 def floor_flux(grid, gas):
@@ -69,10 +49,9 @@ class GasStage:
         g = self.grid
         self.sums = np.zeros((6, g.nx, g.ny), np.int64)
         self.exchange = GridSum(comm)
-        self.K_max = gas.K_max or K_MAX_FACTOR * float(
-            permeability(np.array([cfg.theta0]), 0.0, gas.model, gas.rho, gas.mu, gas.d, np.inf)[0])
         theta0 = cfg.theta0
         self.rate_ref = rate(gas.model, theta0, 0.0, cfg.rho_s, gas.rho, gas.mu, gas.d) / (1.0 - theta0)
+        self.K_max = gas.K_max or K_MAX_FACTOR * permeability.of_uniform(theta0, self.rate_ref, cfg.rho_s)
         if g.walls:  # the floor fed at U (U_jet under a jet), the lid open (p' = 0); y periodic
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", floor_flux(g, gas)),
                                                               darcy.Side("pressure", np.zeros(g.ny))), None)
@@ -84,6 +63,7 @@ class GasStage:
         self.j = None          # the mixture's flux at the cell centres (nx, ny, 2)
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
         self.rates = np.zeros(0)
+        self.no_stream = np.zeros(3)
         ps.add_field("flux")
 
     def __call__(self, ps, step, t):
@@ -103,17 +83,21 @@ class GasStage:
             self.rates = np.zeros(ps.capacity)
         failed = None
         passes = 1 if gas.model == STOKES else 2  # the slip-dependent closures: C at the slip of a first solve
+        n = ps.n_own
         for p in range(passes):
-            drag_rates(ps.theta, ps.vel, ps.flux, ps.kind, ps.n_own, p > 0, gas.model, self.rho_s, gas.rho, gas.mu,
-                       gas.d, self.rates)
+            # C = K / eps along every axis (the passes' drag_rates, at the slip toward the first solve's flux, or
+            # none: toward the particles' own velocity)
+            equations.drag_rates(n, ps.vel, ps.theta, self.rho_s, gas.model, gas.rho, gas.mu, gas.d,
+                                 pass_data.SOLVED, 0, 0.0, 0.0, self.no_stream, ps.flux if p > 0 else ps.vel,
+                                 self.rates, pass_data.OFF)
+            self.rates[:n] /= 1.0 - ps.theta[:n]
             self.sums[:] = 0
             deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.hx, g.hy,
                             g.nx * g.hx, g.ny * g.hy, g.walls, self.sums, self.rates, self.rate_ref)
             self.exchange(self.sums)
-            theta, _ = deposit.fields_of(self.sums, g)
+            theta = deposit.theta_of(self.sums)
             R, V = deposit.resistance_of(self.sums, self.rho_s, self.rate_ref)
-            with np.errstate(divide="ignore"):
-                K = np.minimum(np.where(R > 0.0, 1.0 / R, np.inf), self.K_max)
+            K = permeability.from_resistance(R, self.K_max)
             try:
                 sol = self.darcy.solve(K, V)
             except darcy.SolveFailed as e:

@@ -474,16 +474,6 @@ def solved_slip2(k, vf, theta, flux, three_d):
     return slip2 / (e * e)
 
 
-@njit(cache=True, inline="always")
-def flow_slip2(k, vf, theta, flow, axis, sign, U, u0, u1, u2, flux, three_d):
-    """|u_g,k - v_k|^2 for the gas's flow (STREAM, COLUMN, SOLVED)."""
-    if flow == COLUMN:
-        return column_slip2(k, vf, theta, axis, sign, U, three_d)
-    if flow == SOLVED:
-        return solved_slip2(k, vf, theta, flux, three_d)
-    return stream_slip2(k, vf, u0, u1, u2, three_d)
-
-
 @njit(cache=True, error_model="numpy")
 def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, flow, axis, sign, U, u, flux, K, three_d):
     """K[k] = :func:`parsph.physics.drag.rate` at (theta_k, |u_g,k - v_k|^2) for k < n_own, walls included
