@@ -61,47 +61,37 @@ def _harm(a, b):
 
 
 @njit(cache=True)
-def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, jy, p, drive):
-    """The mixture's flux through every face from the solved p' (a given flux where a side gives it);
-    ``drive``: a mean gradient -drive of p' along a periodic x adds drive K_f to the x-faces' flux."""
-    nx, ny = K.shape
-    for i in range(nx + 1):
-        for j in range(ny):
-            if 0 < i < nx:
+def _axis_faces(K, Vc, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
+    """The mixture's flux along axis 0 through the faces across it, out (n0 + 1, n1), from the solved p' (a
+    given flux where a side gives it); Vc the solids' velocity along that axis. ``drive``: a mean gradient
+    -drive of p' along a periodic axis adds drive K_f to the faces' flux. The y-faces are this on the
+    transposed arrays."""
+    n0, n1 = K.shape
+    for i in range(n0 + 1):
+        for j in range(n1):
+            if 0 < i < n0:
                 a, b = i - 1, i
-            elif kinds[0] == PERIODIC:
-                a, b = nx - 1, 0
+            elif kind_lo == PERIODIC:
+                a, b = n0 - 1, 0
             else:
                 lo = i == 0
-                c = 0 if lo else nx - 1
-                kind = kinds[0] if lo else kinds[1]
-                v = vals_lo_x[j] if lo else vals_hi_x[j]
+                c = 0 if lo else n0 - 1
+                kind = kind_lo if lo else kind_hi
+                v = vals_lo[j] if lo else vals_hi[j]
                 if kind == FLUX:
-                    jx[i, j] = v
+                    out[i, j] = v
                 else:
                     sign = -1.0 if lo else 1.0
-                    jx[i, j] = -K[c, j] * sign * (v - p[c, j]) / (0.5 * hx)
+                    out[i, j] = -K[c, j] * sign * (v - p[c, j]) / (0.5 * h)
                 continue
             Kf = _harm(K[a, j], K[b, j])
-            jx[i, j] = 0.5 * (V[a, j, 0] + V[b, j, 0]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / hx
-    for i in range(nx):
-        for j in range(ny + 1):
-            if 0 < j < ny:
-                a, b = j - 1, j
-            elif kinds[2] == PERIODIC:
-                a, b = ny - 1, 0
-            else:
-                lo = j == 0
-                c = 0 if lo else ny - 1
-                kind = kinds[2] if lo else kinds[3]
-                v = vals_lo_y[i] if lo else vals_hi_y[i]
-                if kind == FLUX:
-                    jy[i, j] = v
-                else:
-                    sign = -1.0 if lo else 1.0
-                    jy[i, j] = -K[i, c] * sign * (v - p[i, c]) / (0.5 * hy)
-                continue
-            jy[i, j] = 0.5 * (V[i, a, 1] + V[i, b, 1]) - _harm(K[i, a], K[i, b]) * (p[i, b] - p[i, a]) / hy
+            out[i, j] = 0.5 * (Vc[a, j] + Vc[b, j]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / h
+
+
+def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, jy, p, drive):
+    """The mixture's flux through every x-face (jx) and y-face (jy); ``drive`` along x only."""
+    _axis_faces(K, V[:, :, 0], hx, kinds[0], kinds[1], vals_lo_x, vals_hi_x, p, jx, drive)
+    _axis_faces(K.T, V[:, :, 1].T, hy, kinds[2], kinds[3], vals_lo_y, vals_hi_y, p.T, jy.T, 0.0)
 
 
 @njit(cache=True)
