@@ -77,7 +77,7 @@ SUITE = [
                            "gas.mu=1e-3", "material.d=1e-4", "scene.amplitude=2.0", 'numerics.drag_update="explicit"',
                            'numerics.dt="auto"'], 1),
     ("settling.toml", ['gas.drag="gidaspow"', 'gas.flow="column"', "gas.U=0.05", "numerics.integrator=midpoint"], 1),
-    # the layer scenes (floor walls of another mass than the fluid's: no uniform mass): scene_ranks' cases
+    # the layer scenes (massless walls that follow the solids: the mirror switch): scene_ranks' cases
     # (fixed dt, 1 thread and 2), test_compiled_step's bed (midpoint); its sedimentation is the run file's
     ("sedimentation.toml", ["numerics.dt=5e-5"], 1),
     ("sedimentation.toml", ["numerics.dt=5e-5"], 2),

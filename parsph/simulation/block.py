@@ -36,7 +36,7 @@ from numba import njit, uintp
 from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
 from parsph.sph import equations
-from parsph.sph import integrators
+from parsph.sph import integrators, walls
 from parsph.sph.cells import patch_spread
 from parsph.sph.particles import drag_maximum, state_maxima
 from parsph.physics.limits import landing, state_limit
@@ -55,6 +55,7 @@ CONTROL = np.dtype([
     ("stop_out", np.float64),   # a stop agreed at a sync of the block (the signal's number)
     ("land", np.bool_),         # the last step landed on t_target
     ("checked", np.int64),      # the last step whose checks the block ran
+    ("reflected", np.int64),    # grains this rank's walls.reflect put back on a plate
 ])
 # timers (float64 seconds), in the solver's phase names
 TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
@@ -140,6 +141,8 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
     t0 = wtime()
     n, n_own = lst.n, parts.n_own
     start = np.int64(0)  # not the literal 0: one version of the passes for both calls
+    if len(sw.mirror):
+        walls.renormalise(lst, parts, c, sw)
     if len(threaded):
         equations.particle_factors(lst, parts, c, sw, start, n_own)
     else:
@@ -153,6 +156,8 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
     else:
         equations.particle_factors_serial(lst, parts, c, sw, n_own, n)
         equations.momentum_serial(lst, parts, c, sw)
+    if len(sw.mirror):
+        walls.forces(lst, parts, c, sw)
     t3 = wtime()
     timers[DENSITY] += t1 - t0
     timers[HALO] += t2 - t1
@@ -288,6 +293,8 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             else:
                 bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                           motion.jump, rule.h, drag, implicit)
+            if len(sw.mirror):
+                ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L)
             timers[INTEGRATE] += wtime() - t0
             code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control,
                                   flags, flags_all, bad, rule.skin, timers, req, stat)
@@ -304,6 +311,8 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         else:
             bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
+        if len(sw.mirror):
+            ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L)
         ctl.step += 1
         if dt_auto:
             ctl.t = ctl.t_target if land else ctl.t + dt

@@ -98,11 +98,14 @@ def run_case(comm, cfg, out_dir, stem, *, state=None, force=False, threads=1, pr
     step0, cpu0 = sim.step, time.process_time()
     sim.run(output=out, progress=progress, stop_requested=stop_requested)
     result = CaseResult(sim, sim.step - step0, sim.wall_time, time.process_time() - cpu0, tuple(out.times))
+    # the walls' backstop (collective): a layer's grains put back on a plate, said where it acted
+    reflected = sim.reflections()
+    tail = f"; a grain put back on a plate {reflected} times (walls.reflect)" if reflected else ""
     if report is not None:
-        say(report.summary(sim, result.steps))
+        say(report.summary(sim, result.steps) + tail)
     else:
         say(f"done: {result.steps} steps in {result.wall_s:.1f} s ({result.rate:.3g} particle-steps/s; "
-            f"neighbour list built {sim.rebuilds} times)")
+            f"neighbour list built {sim.rebuilds} times{tail})")
     return result
 
 

@@ -4,7 +4,7 @@ explicit or implicit in v. The compiled blocks take the same functions through :
 import numba
 import numpy as np
 
-from parsph.sph import integrators, pass_data
+from parsph.sph import integrators, pass_data, walls
 
 
 class Integrator:
@@ -23,6 +23,8 @@ class Integrator:
         self.implicit = pass_data.switch(gas is not None and gas.implicit)
         self.explicit_drag = gas is not None and not gas.implicit  # the auto rule's drag limit applies
         self.no_state = np.zeros((0, cfg.dim))
+        self.plates = float(cfg.L) if cfg.scene.free_surface else None  # walls.reflect's, beside the mirror
+        self.reflected = 0  # grains walls.reflect put back on a plate (this rank, the Python path)
 
     def drag_field(self, ps):
         """The particles' drag coefficients as the integrators take them (an empty array without a gas; read
@@ -35,17 +37,26 @@ class Integrator:
         serial = numba.get_num_threads() == 1
         if not self.midpoint:
             step = integrators.step_paper_serial if serial else integrators.step_paper
-            return step(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
-                        self.implicit)
-        predict = integrators.midpoint_predict_serial if serial else integrators.midpoint_predict
-        return predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
-                       self.drag_field(ps), self.implicit)
+            bad = step(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
+                       self.implicit)
+        else:
+            predict = integrators.midpoint_predict_serial if serial else integrators.midpoint_predict
+            bad = predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
+                          self.drag_field(ps), self.implicit)
+        self._reflect(ps)
+        return bad
+
+    def _reflect(self, ps):
+        if self.plates is not None:
+            self.reflected += walls.reflect(ps.pos, ps.vel, ps.kind, ps.n_own, self.plates)
 
     def second(self, ps, dt):
         """The midpoint scheme's second half, from the rates at the midpoint."""
         correct = integrators.midpoint_correct_serial if numba.get_num_threads() == 1 else integrators.midpoint_correct
-        return correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
-                       self.drag_field(ps), self.implicit)
+        bad = correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
+                      self.drag_field(ps), self.implicit)
+        self._reflect(ps)
+        return bad
 
     def motion(self, ps):
         """The particle state the compiled block integrates besides ParticleArrays (block.Motion's fields)."""

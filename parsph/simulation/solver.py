@@ -190,6 +190,11 @@ class Simulation:
         """What an output writes: time, step, dt, the profile and (``snapshot``) the owned particles."""
         return self.frames.frame(self.ps, self.timeline, snapshot)
 
+    def reflections(self):
+        """Collective: how many times a grain was put back on a plate (``walls.reflect``, the layers' backstop
+        where the walls' pressure did not stop it within a step), over all ranks, since this run started."""
+        return self.collect.total(int(self.blocks.field("reflected")) + self.integrator.reflected)
+
     def check(self):
         """Collective run-time checks (:mod:`parsph.simulation.guards`); on failure every rank raises GuardError."""
         t0 = self.clock()

@@ -317,7 +317,7 @@ def momentum_serial(lst, parts, c, sw):
     order, cstart, cj, cf, n, fields, need = lst.order, lst.cstart, lst.cj, lst.cf, lst.n, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
     rho_s, G_b, k_visc, L, beta_max, g, m_all = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g, c.mass
-    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass, drag_on = sw
+    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass, drag_on, _ = sw
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for k in range(n):

@@ -5,7 +5,7 @@ are :class:`parsph.sph.rates.Rates`.
 """
 import numpy as np
 
-from . import cells
+from . import cells, walls
 from .dispatch import Calls
 
 
@@ -21,6 +21,7 @@ class NeighbourList:
         self._cap = 0
         self.start = np.zeros(0, np.int64)
         self._entries = None
+        self._wall_pairs = None
         self._calls = Calls({"patch_spread": cells.patch_spread})
 
     def _room(self, n, ncells):
@@ -69,12 +70,21 @@ class NeighbourList:
         self.cells = cells.CellOrder(self.cell, self.order, self.start, n)
         self.npairs = count
         self.n = n
+        self._kind = ps.kind
         self._entries = None
+        self._wall_pairs = None
         self._calls.forget()
 
     def spread(self, disp):
         """The largest displacement spread over the patches of cells of this rank (the list holds while below the skin)."""
         return self._calls("patch_spread", disp, self.cells, self.local, self.box, self.work)
+
+    def wall_pairs(self):
+        """The indices of the pairs of a wall and a fluid particle, in list order (once per build;
+        :mod:`parsph.sph.walls`)."""
+        if self._wall_pairs is None:
+            self._wall_pairs = walls.wall_pairs(self.pi, self.pj, self.npairs, self._kind)
+        return self._wall_pairs
 
     def entries(self):
         """(offset, entry): each particle's pairs in pair order, for the threaded passes (once per build)."""

@@ -36,6 +36,7 @@ class Switches(NamedTuple):
     three_d: tuple
     uniform_mass: tuple  # every particle of the run has the mass Constants.mass: the serial passes load none
     drag: tuple          # the solids are in a gas (Constants.gas): drag per particle, gravity with buoyancy
+    mirror: tuple        # the walls continue the fluid's state (parsph.sph.walls; free-surface scenes)
 
 
 class GasConstants(NamedTuple):
@@ -66,6 +67,7 @@ class Constants(NamedTuple):
     g: np.ndarray      # body force, 3 components (with a gas: (1 - rho_g / rho_s) g, buoyancy included)
     mass: float        # every particle's mass where Switches.uniform_mass is on (else unused)
     gas: GasConstants  # the gas where Switches.drag is on (else zeros)
+    wall_volume: float  # the volume a wall particle stands for where Switches.mirror is on (one lattice site)
 
 
 class PairList(NamedTuple):
@@ -83,6 +85,8 @@ class PairList(NamedTuple):
     cstart: np.ndarray   # the pairs within 2h of place a: cstart[a] .. cstart[a+1]-1 of cj, cf (density_serial)
     cj: np.ndarray       # their second members, in pair order
     cf: np.ndarray       # their (dW/dr)/r
+    wall_pairs: np.ndarray  # Switches.mirror: the pairs of a wall and a fluid particle (indices p), else empty
+    wall_share: np.ndarray  # Switches.mirror: per particle, the share of its kernel in the wall (walls.renormalise)
 
 
 class Gather(NamedTuple):

@@ -11,12 +11,13 @@ import time
 import numba
 import numpy as np
 
-from . import equations, pass_data
+from . import equations, pass_data, walls
 from .dispatch import Calls
 
 PASSES = {name: getattr(equations, name) for name in ("density_serial", "density_threaded", "particle_factors",
                                                       "particle_factors_serial", "momentum_serial",
                                                       "momentum_threaded")}
+PASSES.update(renormalise=walls.renormalise, forces=walls.forces)
 
 
 class Rates:
@@ -30,6 +31,7 @@ class Rates:
         self.cj = np.zeros(0, np.uint32)
         self.cf = np.zeros(0)
         self.cstart = np.zeros(0, np.int64)
+        self.wall_share = np.zeros(0)
         self.list = None      # pass_data.PairList of the attached build
         self.neighbours = None
         self._gather = None   # pass_data.Gather, made when threads are in use
@@ -50,8 +52,13 @@ class Rates:
         if len(self.cstart) < n + 1:
             self.cstart = np.zeros(self._cap + 1, np.int64)
         self.neighbours = nlist
+        mirror = len(self.switches.mirror) > 0
+        wall_pairs = nlist.wall_pairs() if mirror else np.zeros(0, np.int64)
+        if len(self.wall_share) < n:
+            self.wall_share = np.zeros(self._cap if mirror else 0)
         self.list = pass_data.PairList(nlist.order, nlist.pstart, nlist.pi, nlist.pj, nlist.need, n, nlist.npairs,
-                                       self.fp, self.rho_sum, self.fields, self.cstart, self.cj, self.cf)
+                                       self.fp, self.rho_sum, self.fields, self.cstart, self.cj, self.cf,
+                                       wall_pairs, self.wall_share)
         self._gather = None
         self._calls.forget()
 
@@ -66,7 +73,7 @@ class Rates:
     def __call__(self, ps, halo, timers=None, clock=time.perf_counter, between=None):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``halo.refresh(ps, ps.rho)`` updates the copies.
 
-        Wall particles keep the rho they hold. ``timers`` (a dict) gets the
+        Wall particles keep the rho they hold; mirrored walls (:mod:`.walls`) act through their passes. ``timers`` (a dict) gets the
         seconds of "density", "halo" and "forces" added, read from ``clock``.
         ``between(ps)``: a stage between Eq. (3) and Eq. (5), the particles' theta known (the solved gas:
         :class:`parsph.simulation.gas_stage.GasStage`); its seconds are its own to count.
@@ -82,6 +89,8 @@ class Rates:
             run("density_threaded", lst, parts, c, sw, gather)
         else:
             run("density_serial", lst, parts, c, sw)
+        if len(sw.mirror):
+            run("renormalise", lst, parts, c, sw)
         run(factors, lst, parts, c, sw, 0, n_own)
         t1 = clock()
         halo.refresh(ps, ps.rho)
@@ -95,6 +104,8 @@ class Rates:
             run("momentum_threaded", lst, parts, c, sw, gather)
         else:
             run("momentum_serial", lst, parts, c, sw)
+        if len(sw.mirror):
+            run("forces", lst, parts, c, sw)
         t3 = clock()
         if timers is not None:
             timers["density"] += t1 - t0

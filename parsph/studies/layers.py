@@ -161,7 +161,9 @@ def free_surface(theta0=0.2, H0=0.005, Ly=8e-4, t_end=0.3, n_times=6, extra=(), 
         x, m, th, speed = fluid_state(sim)
         return {"top": projected.interface_height(sim.cfg, x, m),
                 "low": projected.interface_height(sim.cfg, x, m, level=0.05 * sim.cfg.theta0),
-                "highest": float(x.max()), "speed": float(speed.max()), "x": x, "theta": th}
+                "highest": float(x.max()), "speed": float(speed.max()),
+                "rms_speed": float(np.sqrt(np.sum(m * speed ** 2) / np.sum(m))), "x": x, "theta": th,
+                "reflected": sim.reflections()}
     r = run(path, sets, times, measure=measure, drop=NO_GAS)
     cfg = r.cfg
     ref_top, ref_low = end.height_of(0.5 * theta0), end.height_of(0.05 * theta0)
@@ -170,7 +172,8 @@ def free_surface(theta0=0.2, H0=0.005, Ly=8e-4, t_end=0.3, n_times=6, extra=(), 
         "times": [f["t"] for f in r.frames], "top": [f["top"] for f in r.frames], "top_ref": ref_top,
         "low": [f["low"] for f in r.frames], "low_ref": ref_low,
         "highest": [f["highest"] for f in r.frames], "speed": [f["speed"] for f in r.frames],
-        "floor_theta_ref": end.theta_floor,
+        "rms_speed": [f["rms_speed"] for f in r.frames], "floor_theta_ref": end.theta_floor,
+        "reflected": r.frames[-1]["reflected"],
         "profile_error": profile_error(cfg, end, r.frames[-1]["x"], r.frames[-1]["theta"]),
     }
 

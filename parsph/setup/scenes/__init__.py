@@ -43,8 +43,8 @@ class Scene:
     max_kinetic_energy: Callable = lambda cfg, mass: math.inf
     # plates at x = 0 and x = L (wall particles beyond them); else x is periodic with length L
     walls: bool = True
-    # wall_theta(cfg, x) -> the volume fraction wall particles at x hold; None: theta_0
-    # (docs/physics.md, "Walls": wall theta is held, not evolved)
+    # wall_theta(cfg, x) -> the volume fraction Morris walls at x hold; None: theta_0
+    # (docs/physics.md, "Walls": wall theta is held, not evolved; free-surface scenes' walls follow the solids)
     wall_theta: Optional[Callable] = None
     # current_scale(cfg, t) -> what is left of the flow at time t [m/s], for flows that decay:
     # errors are then reported relative to it (None: to the fixed scale, V_w or theta_0;

@@ -35,5 +35,5 @@ def check(cfg):
 SCENE = Scene(name="fluidized_bed", terms=Terms(pressure=True, viscosity=True, body_force=True),
               particles=layer.particles, reference=reference, error_field="theta",
               velocity_scale=lambda cfg: math.sqrt(abs(cfg.g[0]) * cfg.h),
-              max_kinetic_energy=layer.max_kinetic_energy, walls=True, wall_theta=layer.wall_theta,
+              max_kinetic_energy=layer.max_kinetic_energy, walls=True,
               check=check, free_surface=True, file_attributes=layer.file_attributes)

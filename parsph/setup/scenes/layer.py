@@ -9,11 +9,11 @@ at most 1/theta of a particle alone (its own m W(0) / rho_s, 0.29 theta0 at h = 
 the layer down (tests/test_layers_scenes.py: a layer at rest keeps its mass below a height and its top
 within a few h of the hydrostatic profile's).
 
-The floor's ghost walls hold the layer's end state continued below the floor (its theta at the floor):
-theta and mass both, so that a fluid particle on the floor finds the end state's density in Eq. (3) and its
-pressure in Eq. (5). With the mass of theta0, a sediment packed 2-5x denser than theta0 would see a floor
-of half its density and be squeezed into it (the settling scene's note on held walls). The lid's walls hold
-theta0 and never meet the layer in a run that fits under the lid.
+The floor's and the lid's walls continue the solids' own state, per pair (:mod:`parsph.sph.walls`, after
+Adami, Hu & Adams 2012; docs/physics.md, "Walls under a free surface"): massless particles, each a
+lattice site's volume, that renormalise Eq. (3) near a plate and carry the pressure extrapolated from the
+grain next to them plus the body force. They know nothing of the end state, so a layer dropped loose
+comes to rest on the floor instead of going through it.
 
 The references are docs/physics.md's 3 and 4 (:mod:`parsph.physics.gas_references`: the end state, Kynch's
 solution) and the whole transient between them (:mod:`parsph.physics.consolidation`), built once per run's
@@ -109,15 +109,8 @@ def transient(cfg, times):
 
 def particles(cfg, y_lo, y_hi):
     gid, kind, m, pos, vel = lattice(cfg, y_lo, y_hi, fluid_columns=fluid_columns(cfg))
-    floor = (kind != FLUID) & (pos[:, 0] < 0.0)
-    m[floor] *= end_state(cfg).theta_floor / cfg.theta0
+    m[kind != FLUID] = 0.0  # the walls continue the solids' state (parsph.sph.walls): no mass of their own
     return gid, kind, m, pos, vel
-
-
-def wall_theta(cfg, x):
-    """Floor walls (x < 0): the end state's theta at the floor; the lid's: theta0."""
-    x = np.asarray(x, dtype=float)
-    return np.where(x < 0.0, end_state(cfg).theta_floor, cfg.theta0)
 
 
 def check(cfg, scene):
