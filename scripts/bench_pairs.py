@@ -4,7 +4,7 @@
 
 For each N_x the case of scripts/bench.py (Couette, L_y = L, h = 1.25 dx, dt = "auto") is built and stepped
 past the impulsive start (--warmup steps). On the pair list of its last step the passes of
-:mod:`parsph.sph.equations` and of :mod:`parsph.sph.reference_passes` are first checked to give the same
+:mod:`parsph.sph.density`, :mod:`parsph.sph.momentum` and of :mod:`parsph.sph.reference_passes` are first checked to give the same
 numbers bit for bit, then timed in alternation: --rounds rounds, in each every pass called for about --seconds;
 the minimum time per call over the rounds is kept (the least disturbed by other processes on a shared machine).
 One thread: the serial passes, in process CPU time. More threads: the threaded passes, in wall time (their CPU

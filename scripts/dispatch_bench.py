@@ -23,7 +23,7 @@ import numpy as np
 from mpi4py import MPI
 
 from parsph.simulation.solver import Simulation
-from parsph.sph import cells, equations, pass_data, dispatch
+from parsph.sph import cells, density, momentum, pass_data, dispatch
 from parsph.studies.builders import bench
 
 
@@ -36,11 +36,11 @@ def empty_calls(sim):
     c, sw = R.consts, R.switches
     empty_box = N.local._replace(size=np.zeros(3, np.int64), centre_hi=N.local.centre_lo - 1)
     return {
-        "density_serial": (equations.density_serial, (lst, parts, c, sw)),
-        "density_threaded": (equations.density_threaded, (lst, parts, c, sw, gather)),
-        "particle_factors": (equations.particle_factors, (lst, parts, c, sw, 0, 0)),
-        "momentum_serial": (equations.momentum_serial, (lst, parts, c, sw)),
-        "momentum_threaded": (equations.momentum_threaded, (lst, parts, c, sw, gather)),
+        "density_serial": (density.density_serial, (lst, parts, c, sw)),
+        "density_threaded": (density.density_threaded, (lst, parts, c, sw, gather)),
+        "particle_factors": (momentum.particle_factors, (lst, parts, c, sw, 0, 0)),
+        "momentum_serial": (momentum.momentum_serial, (lst, parts, c, sw)),
+        "momentum_threaded": (momentum.momentum_threaded, (lst, parts, c, sw, gather)),
         "patch_spread": (cells.patch_spread, (ps.disp, N.cells._replace(n=0), empty_box, N.box, N.work)),
     }
 

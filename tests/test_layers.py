@@ -207,7 +207,7 @@ def test_rules_read_as_meant():
     assert r["parsph.parallel"] == ({"parsph.errors", "parsph.sph.particles", "parsph.sph.cells"}, {"mpi4py"})
     assert r["parsph.setup"][0] == {"parsph.errors", "parsph.physics", "parsph.sph.particles", "parsph.sph.integrators",
                                     "parsph.sph.cells"}
-    assert not _within("parsph.sph.equations", r["parsph.parallel"][0])
+    assert not _within("parsph.sph.momentum", r["parsph.parallel"][0])
     assert r["parsph.studies"][1] == {"h5py", "mpi4py"} and "parsph.cli" not in r["parsph.studies"][0]
 
 

@@ -25,11 +25,12 @@ from parsph.cli.progress import COMPILING  # noqa: E402
 pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 
 FEW_STEPS = str(launch.HELPERS / "few_steps.py")
-FRESH = ("equations.density_serial-", "equations.momentum_serial-")  # compiled by the first job, on 3 ranks at once
+FRESH = ("density.density_serial-", "momentum.momentum_serial-")  # compiled by the first job, on 3 ranks at once
 
 
 def data_files(cache, function):
-    return sorted(p.name for p in Path(cache).rglob(f"equations.{function}-*.nbc"))
+    """The cache's data files of ``function`` (``module.name``)."""
+    return sorted(p.name for p in Path(cache).rglob(f"{function}-*.nbc"))
 
 
 def job(cache, n=3, **env):
@@ -43,7 +44,7 @@ def first_job(tmp_path_factory):
     The module compiles once and every test below starts from this cache (the limit only catches a hang)."""
     cache = tmp_path_factory.mktemp("numba_cache") / "numba"
     launch.seed_cache(cache, skip=FRESH)
-    assert not any(data_files(cache, f) for f in ("density_serial", "momentum_serial"))
+    assert not any(data_files(cache, f) for f in ("density.density_serial", "momentum.momentum_serial"))
     out = tmp_path_factory.mktemp("first_run")
     sets = ["domain.Ly=0.0024", "output.t_end=3e-5", "output.times=[3e-5]", "output.progress_interval=1e-6"]
     cmd = launch.parsph_cmd("run", launch.PAPER, "--out", out, *[a for s in sets for a in ("--set", s)])
@@ -85,11 +86,11 @@ def test_compiled_equations_are_reused_by_the_next_process(first_job):
     """A later process finds density and momentum in the cache instead of adding new entries."""
     cache, first = first_job
     assert first.returncode == 0, first
-    before = {f: data_files(cache, f) for f in ("density_serial", "momentum_serial")}
+    before = {f: data_files(cache, f) for f in ("density.density_serial", "momentum.momentum_serial")}
     assert all(before.values()), before
     r = launch.run([launch.PYTHON, FEW_STEPS], timeout=120, NUMBA_CACHE_DIR=cache)
     assert r.returncode == 0, r
-    after = {f: data_files(cache, f) for f in ("density_serial", "momentum_serial")}
+    after = {f: data_files(cache, f) for f in ("density.density_serial", "momentum.momentum_serial")}
     assert after == before, "every process adds a new cache entry (the cache never hits)"
 
 

@@ -18,7 +18,7 @@ from numba import njit
 from parsph.physics.kernels import get_kernel
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
-from parsph.sph import equations, pass_data, reference_passes
+from parsph.sph import density, momentum, pass_data, reference_passes
 
 from conftest import ROOT
 
@@ -108,10 +108,10 @@ def case(request):
 def test_serial_passes_equal_the_scalar_loops(case):
     name, sim, args, ref, _ = case
     lst = args[0]
-    assert lst.npairs > 2 * equations.CHUNK or name == "couette_3d", "the list should span several chunks"
+    assert lst.npairs > 2 * density.CHUNK or name == "couette_3d", "the list should span several chunks"
     assert np.abs(ref["acc"]).max() > 0 and len(ref["pairs"]["j"]) < lst.npairs  # pairs in the skin too
-    equations.density_serial(*args)
-    equations.momentum_serial(*args)
+    density.density_serial(*args)
+    momentum.momentum_serial(*args)
     assert_same(ref, serial_results(args), name)
 
 
@@ -120,8 +120,8 @@ def test_any_chunk_gives_the_same_sums(case, chunk):
     """Chunks shorter than a particle's pairs: each takes one place's row whole, and a place's sum, its
     part of the compact list and the momentum pass on it come out the same."""
     name, sim, args, ref, _ = case
-    equations.density_chunks(*args, chunk)
-    equations.momentum_serial(*args)
+    density.density_chunks(*args, chunk)
+    momentum.momentum_serial(*args)
     assert_same(ref, serial_results(args), f"{name}, chunk {chunk}")
 
 
@@ -132,8 +132,8 @@ def test_threaded_passes_equal_the_scalar_loops(case):
     for threads in (1, 2):
         numba.set_num_threads(threads)
         try:
-            equations.density_threaded(*args, gather)
-            equations.momentum_threaded(*args, gather)
+            density.density_threaded(*args, gather)
+            momentum.momentum_threaded(*args, gather)
         finally:
             numba.set_num_threads(1)
         assert_same(ref, results(args, need_only=True), f"{name}, {threads} threads")
@@ -143,7 +143,7 @@ def test_density_against_brute_force():
     """Eq. (3) by numpy over every pair of local particles (no list, no cells), to round-off."""
     sim, args = stepped("couette_paper", ["domain.Ly=0.001"])
     lst, parts, c = args[0], args[1], args[2]
-    equations.density_serial(*args)
+    density.density_serial(*args)
     n = lst.n
     pos, mass = parts.pos[:n], parts.mass[:n]
     kernel = get_kernel(sim.cfg.kernel, sim.cfg.dim)
@@ -161,7 +161,7 @@ def test_compact_list_holds_the_pairs_within_2h(case):
     none is missing and none beyond 2h is kept (pairs within 1e-9 h of 2h may go either way)."""
     _, sim, args, _, _ = case
     lst, parts, c = args[0], args[1], args[2]
-    equations.density_serial(*args)
+    density.density_serial(*args)
     kernel = get_kernel(sim.cfg.kernel, sim.cfg.dim)
     support = kernel.support / c.inv_h
     n, npairs = lst.n, lst.npairs
@@ -189,8 +189,8 @@ def test_compact_list_holds_the_pairs_within_2h(case):
 
 @njit(cache=True)
 def _both_passes(lst, parts, c, sw):
-    equations.density_serial(lst, parts, c, sw)
-    equations.momentum_serial(lst, parts, c, sw)
+    density.density_serial(lst, parts, c, sw)
+    momentum.momentum_serial(lst, parts, c, sw)
 
 
 def test_passes_run_inside_another_compiled_function(case):

@@ -3,7 +3,6 @@
 and in any order, so every rank holds the same bits as one rank would. The grid is small against the
 particles (a cell holds several), so the whole of it travels: a slab's columns and their neighbours' would do,
 and are the way to a grid that outgrows one rank's memory."""
-import numpy as np
 from mpi4py import MPI
 
 

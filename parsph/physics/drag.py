@@ -45,7 +45,7 @@ def rate(model, theta, slip2, rho_s, rho_g, mu_g, d):
 
     Branch-free (both Wen & Yu branches, then a select) on :mod:`parsph.physics.fastmath`'s log, exp and
     atan, so that a loop over particles calling it with a constant ``model`` runs on vector registers
-    (:func:`parsph.sph.equations.drag_rates`); slip2 = 0 gives Re^0.687 = exp(-inf) = 0. Within 1e-15 of
+    (:func:`parsph.sph.body_force.drag_rates`); slip2 = 0 gives Re^0.687 = exp(-inf) = 0. Within 1e-15 of
     docs/physics.md's formulas written with powers (tests/test_drag.py asks 1e-13)."""
     eps = 1.0 - theta
     le = fm.log(eps)

@@ -3,7 +3,7 @@
 Each kernel is a pair of numba functions ``w(r, inv_h, norm)`` and
 ``dwdr(r, inv_h, norm)`` with compact support ``r < 2h``; ``norm`` is the
 dimension- and h-dependent constant from :func:`Kernel.norm`. The loops in
-:mod:`parsph.sph.equations` call :func:`kernel_w_f`, a branch-free form of both,
+:mod:`parsph.sph.density` and :mod:`parsph.sph.momentum` call :func:`kernel_w_f`, a branch-free form of both,
 with the kernel's integer id (a function passed as an argument would make
 numba's on-disk cache key differ in every process, so nothing would be
 reused).

@@ -45,7 +45,7 @@ compares the prediction with the measured map. Two classical limits are kept
 beside it: advection, dt <= 0.5 h / |v|_max (a particle moves at most h/4 in
 half a step: the midpoint skin of the solver's halo), and a body force,
 dt <= 0.25 sqrt(h / |a|_max) (Monaghan 1992). With a gas and explicit drag, ``drag``: dt <= tau_min =
-1 / C_max, C the drag coefficient of :func:`parsph.sph.equations.drag_plain` (the explicit update is
+1 / C_max, C the drag coefficient of :func:`parsph.sph.body_force.drag_plain` (the explicit update is
 stable for dt < 2 tau and free of overshoot for dt < tau; docs/physics.md). Implicit drag has no limit.
 :func:`state_limit` is the one place of these three (numba; the compiled blocks call it).
 

@@ -35,7 +35,7 @@ from numba import njit, uintp
 
 from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
-from parsph.sph import equations
+from parsph.sph import density, momentum
 from parsph.sph import integrators, walls
 from parsph.sph.cells import patch_spread
 from parsph.sph.particles import drag_maximum, state_maxima
@@ -130,9 +130,9 @@ def _density(lst, parts, c, sw, gather, threaded):
     """Eq. (3) into the list's sums (``lst.rho_sum``, the pairs' (dW/dr)/r): the particles' fields are
     not touched, so that the pass can run while the sync's all-reduce is in flight."""
     if len(threaded):
-        equations.density_threaded(lst, parts, c, sw, gather)
+        density.density_threaded(lst, parts, c, sw, gather)
     else:
-        equations.density_serial(lst, parts, c, sw)
+        density.density_serial(lst, parts, c, sw)
 
 
 @njit(cache=True)
@@ -144,18 +144,18 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
     if len(sw.mirror):
         walls.renormalise(lst, parts, c, sw)
     if len(threaded):
-        equations.particle_factors(lst, parts, c, sw, start, n_own)
+        momentum.particle_factors(lst, parts, c, sw, start, n_own)
     else:
-        equations.particle_factors_serial(lst, parts, c, sw, start, n_own)
+        momentum.particle_factors_serial(lst, parts, c, sw, start, n_own)
     t1 = wtime()
     err = native_halo.refresh(plan, parts.rho, n_own)
     t2 = wtime()
     if len(threaded):
-        equations.particle_factors(lst, parts, c, sw, n_own, n)
-        equations.momentum_threaded(lst, parts, c, sw, gather)
+        momentum.particle_factors(lst, parts, c, sw, n_own, n)
+        momentum.momentum_threaded(lst, parts, c, sw, gather)
     else:
-        equations.particle_factors_serial(lst, parts, c, sw, n_own, n)
-        equations.momentum_serial(lst, parts, c, sw)
+        momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
+        momentum.momentum_serial(lst, parts, c, sw)
     if len(sw.mirror):
         walls.forces(lst, parts, c, sw)
     t3 = wtime()

@@ -2,7 +2,6 @@
 between Python and the block (``block.CONTROL``), the scratch of its all-reduces, its phase timers, its
 arguments (this build's arrays, made anew after each build) and the block compiled for their types.
 The driver (:class:`parsph.simulation.solver.Simulation`) decides what a returned code asks."""
-import time
 
 import numba
 import numpy as np

@@ -3,7 +3,7 @@
 theta, theta v and their drag resistance m C), the deposits summed over the ranks
 (:class:`parsph.parallel.grid_sum.GridSum`), K = 1 / R on the cells (capped), the pressure solved
 (:mod:`parsph.gas.darcy`) and the mixture's flux j interpolated back to the owned particles (``ps.flux``), where
-the drag loops read it (:func:`parsph.sph.equations.drag_plain`: C = K_i / eps_i toward w = j, implicit in v
+the drag loops read it (:func:`parsph.sph.body_force.drag_plain`: C = K_i / eps_i toward w = j, implicit in v
 with ``numerics.drag_update = "implicit"``).
 
 K from the particles' own drag rates, and V their velocity weighted as their drag weights it (not the cell's
@@ -27,7 +27,7 @@ from parsph.gas.grid import grid_of
 from parsph.parallel.grid_sum import GridSum
 from parsph.physics.drag import STOKES, rate
 from parsph.setup.config import K_MAX_FACTOR
-from parsph.sph import equations, pass_data
+from parsph.sph import body_force, pass_data
 
 
 def floor_flux(grid, gas):
@@ -87,7 +87,7 @@ class GasStage:
         for p in range(passes):
             # C = K / eps along every axis (the passes' drag_rates, at the slip toward the first solve's flux, or
             # none: toward the particles' own velocity)
-            equations.drag_rates(n, ps.vel, ps.theta, self.rho_s, gas.model, gas.rho, gas.mu, gas.d,
+            body_force.drag_rates(n, ps.vel, ps.theta, self.rho_s, gas.model, gas.rho, gas.mu, gas.d,
                                  pass_data.SOLVED, 0, 0.0, 0.0, self.no_stream, ps.flux if p > 0 else ps.vel,
                                  self.rates, pass_data.OFF)
             self.rates[:n] /= 1.0 - ps.theta[:n]

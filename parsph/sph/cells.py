@@ -15,7 +15,7 @@ every unique pair (a, b), a before b in that order, within r_c of each
 other, of which at least one member is an owned fluid particle, in that
 order: a particle's pairs therefore come in the order of its neighbours'
 places. That order is the same on any rank count, and the loops of
-:mod:`parsph.sph.equations` add each particle's contributions in it, so results
+:mod:`parsph.sph.density` and :mod:`parsph.sph.momentum` add each particle's contributions in it, so results
 do not depend on the rank or thread count, bit for bit.
 
 Validity. The list built at step n holds every pair within 2h at step m > n

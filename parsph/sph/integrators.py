@@ -9,7 +9,7 @@
 
 With a gas and ``numerics.drag_update = "implicit"`` (the switch ``implicit``), the drag is implicit in v
 with beta frozen over the step: the acceleration ``acc`` holds the explicit rate R + C (w - v) of
-:func:`parsph.sph.equations.drag_plain`, and ``drag`` its coefficient C per component, so that
+:func:`parsph.sph.body_force.drag_plain`, and ``drag`` its coefficient C per component, so that
 
     paper:     v^{n+1} = v^n + dt (R^n + C^n (w - v^{n+1}))         -> a = acc / (1 + dt C)
     midpoint:  v*      = v^n + dt/2 (R^n + C^n (w - v*))            -> a = acc / (1 + dt/2 C)

@@ -1,8 +1,8 @@
 """Eq. (5) for one pair (i, j), scalars in and out: the one copy of the pair arithmetic that every momentum
-loop inlines (the serial and threaded passes of :mod:`.equations`, their scalar references in
+loop inlines (the serial and threaded passes of :mod:`.momentum`, their scalar references in
 :mod:`.reference_passes`, the benchmarks' ceiling loops).
 
-With f = (dW/dr)/r of the pair and the per-particle factors of :func:`parsph.sph.equations.pressure_factor`
+With f = (dW/dr)/r of the pair and the per-particle factors of :func:`parsph.sph.momentum.pressure_factor`
 (``pr``: 10^(G_a theta / 2) for the paper's form, G / (G_a ln 10) / rho^2 for the consistent one), 1/theta,
 theta and 1/rho_bar, particle i gets m_j (P r_ij + mu beta V v_ij) from j:
 
@@ -13,7 +13,7 @@ theta and 1/rho_bar, particle i gets m_j (P r_ij + mu beta V v_ij) from j:
     beta = min(beta_max, 1 + d_wall / d_fluid) where j is a wall particle (docs/physics.md, "Walls").
 
 Scalars only: a helper that takes the particle arrays makes numba count references to them at every call
-and keeps LLVM from hoisting the loads (the 7x of equations.particle_factors_serial's note); inlined with
+and keeps LLVM from hoisting the loads (the 7x of momentum.particle_factors_serial's note); inlined with
 scalars the loops compile to the same code as written out, bit for bit.
 """
 from numba import njit

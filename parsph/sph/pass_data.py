@@ -1,4 +1,4 @@
-"""The data the passes of :mod:`parsph.sph.equations` take, as named groups that numba compiles like its other
+"""The data the passes of :mod:`parsph.sph.density` and :mod:`parsph.sph.momentum` take, as named groups that numba compiles like its other
 arguments: the neighbour list and the arrays indexed like it (:class:`PairList`), the particles' fields
 (:class:`ParticleArrays`), the run's numbers (:class:`Constants`), the terms a scene uses
 (:class:`Switches`) and the threaded passes' scratch (:class:`Gather`). A field added to a group reaches
@@ -111,7 +111,7 @@ class ParticleArrays(NamedTuple):
     drag: np.ndarray   # with drag: per owned particle and component the coefficient C of its drag
                        # acceleration C (w - v) (1/tau; the implicit update divides by 1 + dt C); else (0, dim)
     drag_rate: np.ndarray  # with drag: per owned particle the closure's K = beta / (rho_s theta eps) (the drag
-                           # loops' contiguous scratch, equations.drag_rates); else (0,)
+                           # loops' contiguous scratch, body_force.drag_rates); else (0,)
     flux: np.ndarray   # the solved gas: per owned particle the mixture's flux j from the grid [m/s]; else (0, dim)
 
 

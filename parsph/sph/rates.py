@@ -11,13 +11,13 @@ import time
 import numba
 import numpy as np
 
-from . import equations, pass_data, walls
+from . import density, momentum, pass_data, walls
 from .dispatch import Calls
 
-PASSES = {name: getattr(equations, name) for name in ("density_serial", "density_threaded", "particle_factors",
-                                                      "particle_factors_serial", "momentum_serial",
-                                                      "momentum_threaded")}
-PASSES.update(renormalise=walls.renormalise, forces=walls.forces)
+PASSES = {"density_serial": density.density_serial, "density_threaded": density.density_threaded,
+          "particle_factors": momentum.particle_factors, "particle_factors_serial": momentum.particle_factors_serial,
+          "momentum_serial": momentum.momentum_serial, "momentum_threaded": momentum.momentum_threaded,
+          "renormalise": walls.renormalise, "forces": walls.forces}
 
 
 class Rates:

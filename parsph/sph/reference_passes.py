@@ -1,12 +1,12 @@
 """Scalar pair passes of Eq. (3) and Eq. (5): the reference that tests and ``scripts/bench_pairs.py`` compare
-the passes of :mod:`parsph.sph.equations` against, on the same pair list, bit for bit. Not called by the solver.
+the passes of :mod:`parsph.sph.density` and :mod:`parsph.sph.momentum` against, on the same pair list, bit for bit. Not called by the solver.
 
 Each particle's pairs are walked one by one: a branch skips a candidate
 beyond 2h, the neighbour's position and fields are loaded through its index
 and its sum is scattered to (``rho_sum[j] += ...``, ``acc[j] -= ...``); the
 threaded passes store the pair values and gather them per particle in pair
 order. The same floating-point operations in the same order as
-:mod:`parsph.sph.equations`, and the same signatures; LLVM keeps these
+:mod:`parsph.sph.density` and :mod:`parsph.sph.momentum`, and the same signatures; LLVM keeps these
 loops scalar (signed indices, zero-divisor tests, the branch).
 """
 import math

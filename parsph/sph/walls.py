@@ -27,7 +27,7 @@ from numba import njit
 
 from parsph.physics.closures import modulus_unchecked
 from parsph.physics.kernels import kernel_w_f
-from .equations import pressure_factor
+from .momentum import pressure_factor
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
 from .particles import FLUID
 from .pass_data import COLUMN, INV_RHO, INV_THETA, PRESS, SOLVED, THETA, VX, VY, VZ
@@ -92,7 +92,7 @@ def renormalise(lst, parts, c, sw):
 
 @njit(cache=True, inline="always")
 def rest_drag(i, flow, axis, sign, U, u, flux, K, eps):
-    """The drag acceleration on particle i were it at rest, C w per component (equations.drag_plain's C and w)."""
+    """The drag acceleration on particle i were it at rest, C w per component (body_force.drag_plain's C and w)."""
     if flow == COLUMN:
         ce = K / eps * sign * U
         return (ce if axis == 0 else 0.0), (ce if axis == 1 else 0.0), (ce if axis == 2 else 0.0)

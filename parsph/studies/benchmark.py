@@ -7,7 +7,7 @@ machine. Beside them it times scalar loops over the same pair list that do the
 arithmetic of Eqs. (3) and (5) and nothing else (each pair once, no branches,
 no walls): a ceiling the solver's passes are measured against, not used by
 the solver. :func:`pair_state`, :func:`check_passes` and :func:`time_passes`
-compare the passes of :mod:`parsph.sph.equations` with the scalar reference
+compare the passes of :mod:`parsph.sph.density` and :mod:`parsph.sph.momentum` with the scalar reference
 passes of :mod:`parsph.sph.reference_passes` on one pair list: first bit for
 bit, then timed in alternation (the minimum over rounds: the least disturbed
 by other processes on a shared machine).
@@ -22,7 +22,7 @@ from mpi4py import MPI
 from numba import njit
 
 from parsph.simulation.solver import PHASES, Simulation
-from parsph.sph import equations, pass_data, reference_passes
+from parsph.sph import density, momentum, pass_data, reference_passes
 from parsph.sph.pair_terms import pressure_term, viscosity_coefficient, viscous_term
 from .builders import bench as bench_case
 from .machine import current_rss, peak_rss, threading_layer
@@ -258,15 +258,15 @@ def check_passes(args, gather, threads):
         reference_passes.density_serial(*args)
         reference_passes.momentum_serial(*args)
         ref = _outputs(lst, parts)
-        equations.density_serial(*args)
-        equations.momentum_serial(*args)
+        density.density_serial(*args)
+        momentum.momentum_serial(*args)
         new = _outputs(lst, parts, compact=True)
     else:
         reference_passes.density_threaded(*args, gather)
         reference_passes.momentum_threaded(*args, gather)
         ref = _outputs(lst, parts)
-        equations.density_threaded(*args, gather)
-        equations.momentum_threaded(*args, gather)
+        density.density_threaded(*args, gather)
+        momentum.momentum_threaded(*args, gather)
         new = _outputs(lst, parts)
     names = ("rho_sum", "pairs", "acc")
     return [name for name, a, b in zip(names, ref, new) if not np.array_equal(a, b)]
@@ -285,15 +285,15 @@ def time_passes(args, gather, threads, rounds, seconds):
     numba.set_num_threads(threads)
     if threads == 1:
         passes = {"density_ref": (reference_passes.density_serial, args),
-                  "density_new": (equations.density_serial, args),
+                  "density_new": (density.density_serial, args),
                   "forces_ref": (reference_passes.momentum_serial, args),
-                  "forces_new": (equations.momentum_serial, args)}
+                  "forces_new": (momentum.momentum_serial, args)}
     else:
         targs = args + (gather,)
         passes = {"density_ref": (reference_passes.density_threaded, targs),
-                  "density_new": (equations.density_threaded, targs),
+                  "density_new": (density.density_threaded, targs),
                   "forces_ref": (reference_passes.momentum_threaded, targs),
-                  "forces_new": (equations.momentum_threaded, targs)}
+                  "forces_new": (momentum.momentum_threaded, targs)}
     reps = {}
     for name, (fn, a) in passes.items():
         fn(*a)

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from functools import lru_cache
 import math
 
-import numpy as np
 
 from parsph.errors import ConfigError
 from parsph.physics import consolidation, gas_references as refs, limits, voidage_waves
