@@ -108,6 +108,30 @@ def test_layers_in_series():
     assert np.allclose(sol.p[:, 0], U * above, rtol=1e-12)
 
 
+def test_moving_layers_in_series_carry_the_pressure_drop_of_their_drag():
+    """K and the solids' V varying along x alone (grains moving through the gas, as in a bubbling bed), the
+    floor fed at U, p' = 0 at the top: j = U through every face, and p' at a cell is the integral of
+    (U - V) / K over the half cells above it (its own upper half, then each whole cell, each with its own K
+    and V: the pressure drop that Darcy's law gives through layers in series). The floor's p' is then
+    sum_c h (U - V_c) / K_c, the drag of every cell: what a bed's pressure drop must equal. (With V_f the
+    plain mean of the two cells, the floor's p' is off by 53% of the drop here.)"""
+    rng = np.random.default_rng(7)
+    nx, ny, hx, hy, U = 9, 4, 0.3, 0.2, 0.05
+    Kx = rng.uniform(0.1, 3.0, nx)
+    Vx = rng.uniform(-0.2, 0.2, nx)
+    Vx[-1] = 0.0  # clear gas under the open top (no solids cross a side: its face has V_f = 0)
+    K = np.repeat(Kx[:, None], ny, axis=1)
+    V = np.zeros((nx, ny, 2))
+    V[:, :, 0] = Vx[:, None]
+    sol = darcy.solve(K, V, hx, hy, (darcy.Side("flux", U), darcy.Side("pressure", 0.0)), None)
+    assert np.allclose(sol.jx, U, rtol=1e-12)
+    drop = hx * (U - Vx) / Kx   # each whole cell's
+    above = np.array([0.5 * drop[i] + drop[i + 1:].sum() for i in range(nx)])
+    assert np.allclose(sol.p[:, 0], above, rtol=1e-11, atol=1e-13 * np.abs(drop).sum())
+    floor = sol.p[0, 0] + 0.5 * drop[0]
+    assert floor == pytest.approx(drop.sum(), rel=1e-11)
+
+
 def test_random_fields_have_no_divergence_and_two_solvers_agree():
     rng = np.random.default_rng(11)
     nx, ny, hx, hy = 12, 7, 0.1, 0.15

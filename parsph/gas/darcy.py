@@ -5,7 +5,7 @@ the solids' velocity, the mixture's volume flux j = V - K grad p' has no diverge
 
 written in finite volumes on the cell-centred grid (:mod:`parsph.gas.grid`): per cell, the outward fluxes
 through its faces sum to zero, a face's flux (V_f - K_f (p_nb - p_c) / h) times its length, K_f the
-harmonic mean of the two cells' K (exact for layers in series), V_f their mean. The solids do not cross a
+harmonic mean of the two cells' K and V_f their mean weighted by 1/K (both exact for layers in series). The solids do not cross a
 boundary face (V_f = 0 there). A side is periodic, or has a given normal flux (a floor fed at U(y); U = 0
 closes it), or a given pressure at the face (p' = 0: an open top); a periodic x may carry a given mean
 flux (:class:`Darcy`'s ``mean_flux``). The matrix is symmetric positive
@@ -60,6 +60,16 @@ def _harm(a, b):
     return 2.0 * a * b / (a + b)
 
 
+@njit(cache=True, inline="always")
+def _face_v(Ka, Kb, Va, Vb):
+    """The face value of V between two cells: their mean weighted by resistance 1/K, (K_b V_a + K_a V_b) /
+    (K_a + K_b). With K_f harmonic it is exact for two half cells in series (the same j through both, the
+    pressure drops (h/2)(j - V)/K added): j - V_f = K_f (p_a - p_b) / h. It also makes the faces' drag
+    the cells' own: the sum over the x-faces of (j_f - V_f) / K_f is that of the cells' (j_c - V_c) / K_c
+    (j_c the mean of a cell's two faces), so the pressure drop across a bed is the drag the grains feel."""
+    return (Kb * Va + Ka * Vb) / (Ka + Kb)
+
+
 @njit(cache=True)
 def _axis_faces(K, Vc, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
     """The mixture's flux along axis 0 through the faces across it, out (n0 + 1, n1), from the solved p' (a
@@ -85,7 +95,7 @@ def _axis_faces(K, Vc, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
                     out[i, j] = -K[c, j] * sign * (v - p[c, j]) / (0.5 * h)
                 continue
             Kf = _harm(K[a, j], K[b, j])
-            out[i, j] = 0.5 * (Vc[a, j] + Vc[b, j]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / h
+            out[i, j] = _face_v(K[a, j], K[b, j], Vc[a, j], Vc[b, j]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / h
 
 
 def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, jy, p, drive):
@@ -130,7 +140,7 @@ def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, i
             if inside:
                 Kf = _harm(K[i, j], K[ii, jj])
                 g = length * Kf / h
-                vout = sign * 0.5 * (V[i, j, axis] + V[ii, jj, axis])
+                vout = sign * _face_v(K[i, j], K[ii, jj], V[i, j, axis], V[ii, jj, axis])
                 if axis == 0:
                     vout += sign * drive * Kf
                 rhs[c] -= length * vout

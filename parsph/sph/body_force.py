@@ -6,7 +6,7 @@ from numba import njit
 
 from parsph.physics.drag import GIDASPOW, STOKES, WEN_YU, rate
 from .particles import FLUID
-from .pass_data import COLUMN, SOLVED  # the gas's flows (GasConstants.flow)
+from .pass_data import COLUMN, SOLVED, TOWARD_FLUX  # the gas's flows (GasConstants.flow)
 
 
 @njit(cache=True, error_model="numpy")
@@ -93,7 +93,12 @@ def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, flow, axis
     (unused there): one loop per closure and kind of gas flow, each branch-free (the model a constant) so that
     it runs on vector registers, fastmath's log, exp and atan included. Plain arguments, as drag_plain's;
     :func:`parsph.sph.momentum._momentum_threaded` calls it on chunks of the arrays in parallel (a parallel loop of these bodies
-    took about 20 s to compile per version). ``flux``: the solved gas's j per particle (else unread)."""
+    took about 20 s to compile per version). ``flux``: the solved gas's j per particle (else unread).
+    ``flow`` SOLVED: K is the solved gas's stage's (the rates it deposited on the grid, so that the drag the
+    grains feel is the grid's -grad p' exactly) and left as it is; TOWARD_FLUX: at the slip toward ``flux``
+    (what that stage computes)."""
+    if flow == SOLVED:
+        return
     u0, u1, u2 = u[0], u[1], u[2]
     vf = flat(vel)
     if model == STOKES:
@@ -108,7 +113,7 @@ def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, flow, axis
             for k in range(n_own):
                 K[k] = rate(GIDASPOW, theta[k], column_slip2(k, vf, theta, axis, sign, U, three_d), rho_s, rho_g,
                             mu_g, d_grain)
-    elif flow == SOLVED:
+    elif flow == TOWARD_FLUX:
         for k in range(n_own):
             K[k] = rate(model, theta[k], solved_slip2(k, vf, theta, flux, three_d), rho_s, rho_g, mu_g, d_grain)
     elif model == WEN_YU:

@@ -16,8 +16,10 @@ import numpy as np
 ON, OFF = (1,), ()
 # columns of the per-particle row the pair loops read (``PairList.fields``)
 VX, VY, VZ, THETA, INV_RHO, INV_THETA, PRESS = 0, 1, 2, 3, 4, 5, 6
-# the gas's flow (GasConstants.flow): a given stream, a column's closure, the solved gas's flux per particle
-STREAM, COLUMN, SOLVED = 0, 1, 2
+# the gas's flow (GasConstants.flow): a given stream, a column's closure, the solved gas's flux per particle;
+# TOWARD_FLUX: body_force.drag_rates at the slip toward a given flux per particle (what the solved gas's stage
+# deposits; in the solved flow the passes read those rates, ParticleArrays.drag_rate, and compute none)
+STREAM, COLUMN, SOLVED, TOWARD_FLUX = 0, 1, 2, 3
 FLOWS = {"stream": STREAM, "column": COLUMN, "solved": SOLVED}
 
 
