@@ -14,8 +14,11 @@ from parsph.physics.voidage_waves import Bed
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
 from parsph.sph.particles import FLUID
+from parsph.sph.profiles import mass_quantiles
 
 WAVES = Path(__file__).resolve().parents[2] / "run" / "voidage_waves.toml"
+BED_AIR = WAVES.parent / "fluidized_bed_air.toml"
+QUANTILES = (0.05, 0.25, 0.5, 0.75, 0.95)
 
 
 def bed_of(cfg):
@@ -93,3 +96,48 @@ def periodic_bed(sets=(), t_end=1.0, path=WAVES):
     sim.run(observe=observe)
     a = np.array(rows)
     return PeriodicBed(cfg, *a.T)
+
+
+@dataclass
+class FloorBed:
+    """A bed on a floor fed at U in the solved gas, read at every step: the pressure drop across it (p' at the
+    floor, extrapolated from the first two rows of cells and averaged across; the open top holds p' = 0), the
+    smallest theta of the grid's cells below the bed's median height (a void reads near 0), and the
+    layer's mass-fraction heights (5% .. 95%)."""
+    cfg: object
+    t: np.ndarray
+    drop: np.ndarray        # [Pa]
+    theta_min: np.ndarray
+    heights: np.ndarray     # (steps, 5) [m]
+    weight: float           # the solids' buoyant weight per unit area [Pa]
+    reflected: int          # grains walls.reflect put back on a plate (0: the walls' pressure held them all)
+
+    def mean_drop(self, t0):
+        """The pressure drop averaged over time from t0 to the end (each step weighted by its dt)."""
+        sel = self.t >= t0
+        t, d = self.t[sel], self.drop[sel]
+        return float(np.sum(0.5 * (d[1:] + d[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+
+
+def floor_bed(sets=(), t_end=2.0, path=BED_AIR):
+    """Run a bed on a floor with the solved gas (run/fluidized_bed_air.toml with ``sets``) to t_end."""
+    cfg = config.load(path, ['gas.flow="solved"', *sets, f"output.t_end={t_end!r}", f"output.times=[{t_end!r}]",
+                             "output.snapshots=false"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    ps = sim.ps
+    f = ps.kind[:ps.n_own] == FLUID
+    g = math.sqrt(sum(x * x for x in cfg.g))
+    weight = float(ps.mass[:ps.n_own][f].sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly
+    rows, heights = [], []
+
+    def observe(s):
+        sol = s.gas.solution
+        p = sol.p
+        fl = s.ps.kind[:s.ps.n_own] == FLUID
+        h = mass_quantiles(s.ps.pos[:s.ps.n_own][fl, 0], s.ps.mass[:s.ps.n_own][fl], QUANTILES)
+        below = (np.arange(p.shape[0]) + 0.5) * s.gas.grid.hx < h[2]
+        rows.append((s.t, float(np.mean(1.5 * p[0] - 0.5 * p[1])), float(sol.theta[below].min())))
+        heights.append(h)
+    sim.run(observe=observe)
+    a = np.array(rows)
+    return FloorBed(cfg, a[:, 0], a[:, 1], a[:, 2], np.array(heights), weight, sim.reflections())
