@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from parsph.physics import consolidation as cons, gas_references as gr, limits
+from parsph.physics import bed_expansion, consolidation as cons, gas_references as gr, kynch, limits
 
 WATER = gr.Phases(2000.0, 1000.0, 1e-3, 3e-4, 9.81, "stokes")
 AIR = gr.Phases(2000.0, 1.2, 1.8e-5, 3e-4, 9.81, "gidaspow")
@@ -57,7 +57,7 @@ def test_top_falls_on_kynch_line(theta0):
     0.006 / 0.024% measured) and lies on H0 + v0 t within 0.1% of H0 (the smear p_s'(theta0) /
     (theta0 (rho_s - rho_g) |g|) is 0.4 / 2.9% of H0, symmetric about the line)."""
     H0 = 0.02
-    k = gr.batch_sedimentation(theta0, H0, WATER, G_A, G_B, FORM)
+    k = kynch.batch_sedimentation(theta0, H0, WATER, G_A, G_B, FORM)
     assert k.settling_velocity == pytest.approx(gr.richardson_zaki_velocity(theta0, WATER), rel=1e-12)
     times = [f * k.meeting_time for f in (0.2, 0.5, 0.8)]
     tr = solve(theta0, H0, WATER, times, 1.2 * H0, cells=240)
@@ -77,11 +77,11 @@ def test_mass_is_conserved():
 
 def test_ends_as_the_hydrostatic_sediment():
     """U = 0: at t = 30 s (about 25 consolidation times H^2 / D) the heights of the mass fractions are the final
-    sediment's (gas_references.final_sediment, the steady ODE) within 0.25% of H0 on cells of 0.2 mm (0.003
+    sediment's (kynch.final_sediment, the steady ODE) within 0.25% of H0 on cells of 0.2 mm (0.003
     to 0.16% measured, the grid's error, largest at the free top)."""
     H0 = 0.02
     tr = solve(0.2, H0, WATER, [30.0], 0.03, cells=150)
-    final = gr.final_sediment(WATER.rho_s * 0.2 * H0, WATER, G_A, G_B, FORM)
+    final = kynch.final_sediment(WATER.rho_s * 0.2 * H0, WATER, G_A, G_B, FORM)
     assert np.max(np.abs(tr.quantiles(30.0) - final.quantiles(cons.FRACTIONS))) < 2.5e-3 * H0
     # the floor's cell against the ODE at its centre: 0.18% (first order: 0.07% on 300 cells)
     assert tr.profile(30.0)[0] == pytest.approx(float(final.theta_at(tr.centres[0])), rel=3e-3)
@@ -92,11 +92,11 @@ def test_ends_as_the_hydrostatic_sediment():
     (AIR, 0.6, 0.03, 0.1, 0.04, 100, 2.5e-3),          # run/fluidized_bed_air.toml: Gidaspow, not uniform
 ], ids=["water", "air"])
 def test_bed_ends_as_the_steady_column(ph, theta0, H0, U, L, cells, tol):
-    """U > 0: the bed expands to gas_references.steady_column (with its mass): the heights of the mass
+    """U > 0: the bed expands to bed_expansion.steady_column (with its mass): the heights of the mass
     fractions within ``tol`` of H0 (measured 0.013% in water on 0.1 mm cells, 0.18% in air on 0.4 mm)."""
     t = 10.0 if ph is WATER else 2.0
     tr = solve(theta0, H0, ph, [t], L, U, cells=cells)
-    col = gr.steady_column(ph.rho_s * theta0 * H0, U, ph, G_A, G_B, FORM)
+    col = bed_expansion.steady_column(ph.rho_s * theta0 * H0, U, ph, G_A, G_B, FORM)
     assert np.max(np.abs(tr.quantiles(t) - col.quantiles(cons.FRACTIONS))) < tol * H0
 
 

@@ -9,7 +9,7 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from parsph.physics import drag, gas_references as gr, limits
+from parsph.physics import bed_expansion, drag, gas_references as gr, kynch, limits
 from parsph.physics.analytic import settling_equilibrium
 from parsph.physics.closures import G_A, G_B
 
@@ -42,7 +42,7 @@ def balance_error(col, x, U, ph, form, scale):
     """(p_s(theta(x + h)) - p_s(theta(x - h))) / 2h - f(theta(x)), h = 1e-4 of the local length: the smaller of
     ``scale`` and theta p_s' / |f| (theta's e-folding length; at the free top it is microns)."""
     th = float(col.theta_at(x))
-    f = gr.column_rhs(th, U, ph)
+    f = bed_expansion.column_rhs(th, U, ph)
     h = 1e-4 * min(scale, th * limits.dpressure(th, G_A, G_B, form) / abs(f), x)
     p = [limits.pressure(float(t), G_A, G_B, form) for t in col.theta_at(np.array([x - h, x + h]))]
     return (p[1] - p[0]) / (2 * h) - f, th
@@ -188,10 +188,10 @@ def test_uniform_bed_stokes_root_is_richardson_zaki():
     """theta* with Stokes drag against 1 - (U/u_t)^(1/4.65), U/u_t = 0.01 to 0.9: to 1e-12."""
     for r in (0.01, 0.2, 0.5, 0.9):
         U = r * WATER.u_t
-        assert gr.uniform_bed_fraction(U, WATER) == pytest.approx(1.0 - r ** (1.0 / 4.65), rel=1e-12)
-        assert gr.richardson_zaki_fraction(U, WATER) == pytest.approx(1.0 - r ** (1.0 / 4.65), rel=1e-14)
+        assert bed_expansion.uniform_bed_fraction(U, WATER) == pytest.approx(1.0 - r ** (1.0 / 4.65), rel=1e-12)
+        assert bed_expansion.richardson_zaki_fraction(U, WATER) == pytest.approx(1.0 - r ** (1.0 / 4.65), rel=1e-14)
     with pytest.raises(ValueError):
-        gr.uniform_bed_fraction(1.01 * WATER.u_t, WATER)
+        bed_expansion.uniform_bed_fraction(1.01 * WATER.u_t, WATER)
 
 
 @pytest.mark.parametrize("model", ["wen_yu", "gidaspow"])
@@ -200,10 +200,10 @@ def test_uniform_bed_balances_drag_and_weight(model):
     f = dp_s/dx < 0 just below theta* (the smallest root: the profile from the top climbs to it)."""
     ph = AIR[model]
     for U in (0.3, 0.6, 1.0):
-        th = gr.uniform_bed_fraction(U, ph)
+        th = bed_expansion.uniform_bed_fraction(U, ph)
         eps = 1.0 - th
         assert beta(ph, th, U / eps) * U == pytest.approx(th * eps * eps * (ph.rho_s - ph.rho_g) * ph.g, rel=1e-12)
-        assert all(gr.column_rhs(t, U, ph) < 0 for t in np.linspace(1e-6, th * (1 - 1e-6), 50))
+        assert all(bed_expansion.column_rhs(t, U, ph) < 0 for t in np.linspace(1e-6, th * (1 - 1e-6), 50))
 
 
 def test_minimum_fluidization_from_ergun():
@@ -219,11 +219,11 @@ def test_minimum_fluidization_from_ergun():
             return (150.0 * ph.mu_g * U * th ** 2 / (eps ** 3 * ph.d ** 2) + 1.75 * ph.rho_g * U * U * th
                     / (eps ** 3 * ph.d) - th * (ph.rho_s - ph.rho_g) * ph.g)
         ref = brentq(ergun, 1e-6, 10.0, xtol=1e-16, rtol=1e-15)
-        U_mf = gr.minimum_fluidization_velocity(th, ph)
+        U_mf = bed_expansion.minimum_fluidization_velocity(th, ph)
         assert U_mf == pytest.approx(ref, rel=1e-12)
-        blended = gr.fluidization_velocity(th, ph)
+        blended = bed_expansion.fluidization_velocity(th, ph)
         assert 1e-6 < abs(blended / U_mf - 1.0) < 2e-4
-    assert gr.minimum_fluidization_velocity(0.6, ph) == pytest.approx(0.067924, rel=1e-4)
+    assert bed_expansion.minimum_fluidization_velocity(0.6, ph) == pytest.approx(0.067924, rel=1e-4)
 
 
 @pytest.mark.parametrize("form", limits.FORMS)
@@ -232,9 +232,9 @@ def test_compression_length_stokes(form):
     / eps* (f = theta (rho_s - rho_g)|g| (U / (u_t eps^4.65) - 1)): to 1e-8 (a central difference; 8e-10
     reached), l from 0.06 to 85 mm."""
     for U in (0.005, 0.02, 0.05):
-        th = gr.richardson_zaki_fraction(U, WATER)
+        th = bed_expansion.richardson_zaki_fraction(U, WATER)
         ref = limits.dpressure(th, G_A, G_B, form) * (1.0 - th) / (4.65 * th * WATER.buoyant)
-        assert gr.compression_length(U, WATER, form=form) == pytest.approx(ref, rel=1e-8)
+        assert bed_expansion.compression_length(U, WATER, form=form) == pytest.approx(ref, rel=1e-8)
 
 
 CASES = [(WATER, 0.02, "consistent"), (WATER, 0.02, "paper"), (AIR["wen_yu"], 0.6, "consistent"),
@@ -249,10 +249,10 @@ def test_tall_bed_holds_its_mass_and_its_interior_is_theta_star(ph, U, form):
     grows upward as exp(x / l) between 1e-7 and 1e-4 theta* (the slope of its log to 5e-4: 9e-5 reached, the
     nonlinearity at 1e-4); theta falls monotonically upward
     (to 1e-11 at the floor, where it has reached theta*: the solver's jitter is 1e-12)."""
-    th_s = gr.uniform_bed_fraction(U, ph)
-    ell = gr.compression_length(U, ph, form=form)
+    th_s = bed_expansion.uniform_bed_fraction(U, ph)
+    ell = bed_expansion.compression_length(U, ph, form=form)
     mass = ph.rho_s * th_s * 60.0 * ell
-    col = gr.steady_column(mass, U, ph, form=form)
+    col = bed_expansion.steady_column(mass, U, ph, form=form)
     assert ph.rho_s * profile_integral(col) == pytest.approx(mass, rel=1e-11)
     assert col.theta_floor == pytest.approx(th_s, abs=1e-10)
     assert np.all(np.diff(col.theta) < 1e-10 * th_s)
@@ -266,13 +266,13 @@ def test_short_bed_against_the_quadrature_in_theta(ph, U, form):
     x(theta) = int_theta^theta_floor p_s' / (-f) dtheta and the mass rho_s int_0^theta_floor theta p_s' / (-f)
     dtheta (quad) against the top-down integration: to 1e-10 (heights of levels 0.9 to 0.01 theta_floor; 9e-12
     reached) and 1e-10 (mass; 6e-12)."""
-    th_s = gr.uniform_bed_fraction(U, ph)
-    mass = ph.rho_s * th_s * 2.0 * gr.compression_length(U, ph, form=form)
-    col = gr.steady_column(mass, U, ph, form=form)
+    th_s = bed_expansion.uniform_bed_fraction(U, ph)
+    mass = ph.rho_s * th_s * 2.0 * bed_expansion.compression_length(U, ph, form=form)
+    col = bed_expansion.steady_column(mass, U, ph, form=form)
     assert col.theta_floor < 0.99 * th_s
 
     def dx(t):
-        return limits.dpressure(t, G_A, G_B, form) / -gr.column_rhs(t, U, ph)
+        return limits.dpressure(t, G_A, G_B, form) / -bed_expansion.column_rhs(t, U, ph)
 
     tb = col.theta_floor
     m = ph.rho_s * quad(lambda t: t * dx(t), 0.0, tb, epsabs=0.0, epsrel=1e-12, limit=200)[0]
@@ -287,8 +287,8 @@ def test_column_mass_quantiles_against_the_integral(ph, U, form):
     """Column.quantiles (where the top-down integration leaves 1 - q of the mass above) against the profile's
     own integral from the floor up: int_0^x theta dx (Gauss-Legendre on theta_at) = q int_0^inf theta dx at
     the returned heights, to 1e-9 of the mass."""
-    th_s = gr.uniform_bed_fraction(U, ph)
-    col = gr.steady_column(ph.rho_s * th_s * 3.0 * gr.compression_length(U, ph, form=form), U, ph, form=form)
+    th_s = bed_expansion.uniform_bed_fraction(U, ph)
+    col = bed_expansion.steady_column(ph.rho_s * th_s * 3.0 * bed_expansion.compression_length(U, ph, form=form), U, ph, form=form)
     fractions = (0.05, 0.25, 0.5, 0.75, 0.95)
     total = profile_integral(col)
     nodes, weights = np.polynomial.legendre.leggauss(40)
@@ -307,9 +307,9 @@ def test_column_pressure_balance_by_finite_differences(ph, U, form):
     """(p_s(theta(x + h)) - p_s(theta(x - h))) / 2h = f(theta(x)) at five heights from 1e-3 of the bed to its
     theta_floor/10 level, h = 1e-4 of the local length (:func:`balance_error`): to 1e-7 of the buoyant weight
     theta (rho_s - rho_g)|g| (5e-9 reached; f itself is from 0 to 0.9 of it)."""
-    th_s = gr.uniform_bed_fraction(U, ph)
-    ell = gr.compression_length(U, ph, form=form)
-    col = gr.steady_column(ph.rho_s * th_s * 5.0 * ell, U, ph, form=form)
+    th_s = bed_expansion.uniform_bed_fraction(U, ph)
+    ell = bed_expansion.compression_length(U, ph, form=form)
+    col = bed_expansion.steady_column(ph.rho_s * th_s * 5.0 * ell, U, ph, form=form)
     top = col.height_of(0.1 * col.theta_floor)
     for x in np.linspace(1e-3 * top, top, 5):
         err, th = balance_error(col, x, U, ph, form, ell)
@@ -328,7 +328,7 @@ def test_final_sediment(form):
     mass by the trapezoidal rule) with the mass below the lid (the hydrostatic identity): within 1e-4 with 400
     steps, the difference falling 4x from 200 (its trapezoidal mass is second order: it converges to this one)."""
     ph, mass = WATER, WATER.rho_s * 0.1 * 0.02
-    col = gr.final_sediment(mass, ph, form=form)
+    col = kynch.final_sediment(mass, ph, form=form)
     target = limits.pressure(0.0, G_A, G_B, form) + ph.buoyant * mass / ph.rho_s
     tb = brentq(lambda t: limits.pressure(t, G_A, G_B, form) - target, 0.0, 1.0, xtol=1e-16, rtol=1e-15)
     if form == "consistent":
@@ -356,12 +356,12 @@ def test_kynch_interface_speed_is_the_flux_chord(theta0):
     """MFiX PIC04's layers (H0 = 2 cm): the interface line's slope against the chord (F(theta0) - F(0)) /
     theta0 of the Stokes flux F = -u_t theta (1 - theta)^4.65 written out here, to 1e-12; with Wen & Yu in air
     the slope's drag carries the weight (drag.beta) to 1e-12."""
-    s = gr.batch_sedimentation(theta0, 0.02, WATER)
+    s = kynch.batch_sedimentation(theta0, 0.02, WATER)
     t = 0.5 * s.meeting_time
     slope = (s.interface(t) - s.interface(0.0)) / t
     assert slope == pytest.approx((rz_flux(theta0, WATER) - 0.0) / theta0, rel=1e-12)
     a = AIR["wen_yu"]
-    sa = gr.batch_sedimentation(theta0, 0.02, a)
+    sa = kynch.batch_sedimentation(theta0, 0.02, a)
     speed = -(sa.interface(0.5 * sa.meeting_time) - sa.H0) / (0.5 * sa.meeting_time)
     eps = 1.0 - theta0
     assert beta(a, theta0, speed / eps) * speed == pytest.approx(theta0 * eps ** 2 * a.buoyant, rel=1e-12)
@@ -377,7 +377,7 @@ def test_kynch_sediment_front_and_meeting(form, theta0):
     p_s' / ((rho_s - rho_g)|g| theta) dtheta: to 1e-10 (2e-13 reached; theta_packed = 0.305 and 0.339 for the
     paper form, 0.394 and 0.431 for the consistent one, at theta0 = 0.1 and 0.2). Both lines are nan after t_m."""
     H0 = 0.02
-    s = gr.batch_sedimentation(theta0, H0, WATER, form=form)
+    s = kynch.batch_sedimentation(theta0, H0, WATER, form=form)
     chord = (0.0 - rz_flux(theta0, WATER)) / (s.theta_packed - theta0)
     assert s.front_speed == pytest.approx(chord, rel=1e-12)
     tm = s.meeting_time
@@ -392,7 +392,7 @@ def test_kynch_sediment_front_and_meeting(form, theta0):
     assert s.meeting_height == pytest.approx(h_m, rel=1e-10)
     assert s.theta_packed == pytest.approx(theta0 * H0 / h_m, rel=1e-10)
     # a given packing: the kinematic answer, t_m = H0 (theta_p - theta0) / (theta_p |v0|)
-    k = gr.batch_sedimentation(theta0, H0, WATER, form=form, theta_packed=0.6)
+    k = kynch.batch_sedimentation(theta0, H0, WATER, form=form, theta_packed=0.6)
     assert k.meeting_time == pytest.approx(H0 * (0.6 - theta0) / (0.6 * -rz_flux(theta0, WATER) / theta0), rel=1e-12)
 
 
@@ -402,12 +402,12 @@ def test_bad_input():
     with pytest.raises(ValueError):
         gr.hindered_settling_velocity(1.0, WATER)
     with pytest.raises(ValueError):
-        gr.steady_column(-1.0, 0.0, WATER)
+        bed_expansion.steady_column(-1.0, 0.0, WATER)
     with pytest.raises(ValueError):
-        gr.steady_column(1.0, 0.0, WATER, form="closure")
+        bed_expansion.steady_column(1.0, 0.0, WATER, form="closure")
     with pytest.raises(ValueError):
         gr.relaxation_factor(0.1, "rk4")
     with pytest.raises(ValueError):
         gr.Phases(2500.0, 1000.0, 1e-3, 3e-4, 9.81, "ergun").beta(0.1, 0.1)
     with pytest.raises(ValueError):
-        gr.batch_sedimentation(0.1, 0.02, WATER, theta_packed=0.05)
+        kynch.batch_sedimentation(0.1, 0.02, WATER, theta_packed=0.05)

@@ -233,9 +233,9 @@ def report(path, p, cfg, tol_heights=TOL_HEIGHTS, tol_theta=TOL_THETA):
 
 
 def _compression_length(cfg):
-    from parsph.physics import gas_references as refs
+    from parsph.physics import bed_expansion
     from parsph.setup.scenes import layer
-    return refs.compression_length(cfg.gas.U, layer.phases(cfg), cfg.G_a, cfg.G_b, layer.form(cfg))
+    return bed_expansion.compression_length(cfg.gas.U, layer.phases(cfg), cfg.G_a, cfg.G_b, layer.form(cfg))
 
 
 def profile_figure(p, cfg):

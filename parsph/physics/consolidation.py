@@ -29,7 +29,7 @@ sigma_e' = p_s'. p_s' > 0 at every theta (G(0) = 10^G_b), so D > 0 everywhere: t
 parabolic (not degenerate, unlike an effective stress that vanishes below a critical concentration), its
 solution smooth, and a finite-volume solution converges to it. Its limits: where D is small against f' H0,
 Kynch's kinematic solution (the top falls at u_t (1 - theta0)^4.65, reference 4); at rest (F = 0), the steady
-column of :func:`parsph.physics.gas_references.steady_column` (the final sediment for U = 0, the bed for U > 0),
+column of :func:`parsph.physics.bed_expansion.steady_column` (the final sediment for U = 0, the bed for U > 0),
 which is what the transient tends to. What it leaves out: the solids' inertia (a lag of about v0 tau, tau the
 drag's relaxation time: docs/validation.md, "The interface's offset") and the viscous stress (zero in a flow
 that is uniform across the column).

@@ -6,7 +6,7 @@ Every run is in-process on one rank (``MPI.COMM_SELF``); a run file's values wit
 "key=value" strings as ``parsph run --set`` takes them). The measures:
 
 - the interface: :func:`parsph.sph.projected.interface_height` at theta0 / 2 (the top of Eq. (3)'s field
-  averaged across the box), against Kynch's line H0 + v0 t (:func:`parsph.physics.gas_references.batch_sedimentation`);
+  averaged across the box), against Kynch's line H0 + v0 t (:func:`parsph.physics.kynch.batch_sedimentation`);
 - the end state: the sediment's (or bed's) height at a level against the end state Column's
   (:func:`parsph.setup.scenes.layer.end_state`), and the particles' theta against the Column's theta(x) in
   the interior (from 2h above the floor to 2h below where the Column falls to half its interior value);
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from parsph.physics import gas_references as refs
+from parsph.physics import bed_expansion
 from parsph.setup import config
 from parsph.setup.runfile import RunFile
 from parsph.setup.scenes import layer
@@ -181,7 +181,7 @@ def free_surface(theta0=0.2, H0=0.005, Ly=8e-4, t_end=0.3, n_times=6, extra=(), 
 # ---- bed expansion (reference 3) --------------------------------------------------------------------------
 def bed_velocity(theta_star, cfg):
     """U [m/s] that holds a uniform bed at theta_star for ``cfg``'s grains and gas (the balance's inverse)."""
-    return refs.fluidization_velocity(theta_star, layer.phases(cfg))
+    return bed_expansion.fluidization_velocity(theta_star, layer.phases(cfg))
 
 
 def bed(theta_star=None, U=None, H0=None, Ly=None, t_end=2.0, n_times=4, extra=(), path=BED):
@@ -208,9 +208,9 @@ def bed(theta_star=None, U=None, H0=None, Ly=None, t_end=2.0, n_times=4, extra=(
     return {
         "U": U, "theta_star": end.theta_star, "eps_star": 1.0 - end.theta_star, "steps": r.steps,
         "u_t": ph.u_t, "H0": layer.layer_height(r.cfg), "Ly": r.cfg.Ly,
-        "rz_theta": refs.richardson_zaki_fraction(U, ph) if U < ph.u_t else math.nan,
-        "compression_length": refs.compression_length(U, ph, r.cfg.G_a, r.cfg.G_b, layer.form(r.cfg)),
-        "U_mf": refs.minimum_fluidization_velocity(r.cfg.theta0, ph),
+        "rz_theta": bed_expansion.richardson_zaki_fraction(U, ph) if U < ph.u_t else math.nan,
+        "compression_length": bed_expansion.compression_length(U, ph, r.cfg.G_a, r.cfg.G_b, layer.form(r.cfg)),
+        "U_mf": bed_expansion.minimum_fluidization_velocity(r.cfg.theta0, ph),
         "top_ref": end.height_of(0.5 * end.theta_star),
         "times": [f["t"] for f in r.frames], "errors": [f["error"] for f in r.frames],
         "means": [f["mean"] for f in r.frames], "tops": [f["top"] for f in r.frames],
@@ -226,7 +226,7 @@ def plot_bed_expansion(beds, path, ph):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(5.2, 3.8))
     U = np.linspace(0.002, 0.9 * ph.u_t, 200)
-    ax.plot(U * 1e3, [1.0 - refs.richardson_zaki_fraction(u, ph) for u in U], "k-",
+    ax.plot(U * 1e3, [1.0 - bed_expansion.richardson_zaki_fraction(u, ph) for u in U], "k-",
             label=r"Richardson & Zaki: $U = u_t\,\varepsilon^{4.65}$")
     ax.plot([b["U"] * 1e3 for b in beds], [1.0 - b["means"][-1] for b in beds], "o", color="C3",
             label="parsph: interior of the bed")

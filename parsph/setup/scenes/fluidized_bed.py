@@ -4,7 +4,7 @@
 its steady column and stays there. The layer's parts are in :mod:`.layer`.
 
 Reference (theta, errors relative to theta0): the steady column with the bed's mass and a free top
-(:func:`parsph.physics.gas_references.steady_column`), the state the bed reaches; its interior is theta* where
+(:func:`parsph.physics.bed_expansion.steady_column`), the state the bed reaches; its interior is theta* where
 the bed is much taller than its compression length; v_x 0 in it (NaN above its top, where it has no solids).
 """
 import math

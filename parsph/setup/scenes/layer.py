@@ -25,7 +25,7 @@ import math
 
 
 from parsph.errors import ConfigError
-from parsph.physics import consolidation, gas_references as refs, limits, voidage_waves
+from parsph.physics import bed_expansion, consolidation, gas_references as refs, kynch, limits, voidage_waves
 from parsph.sph.particles import FLUID
 from . import lattice
 
@@ -65,12 +65,12 @@ def form(cfg):
 
 @lru_cache(maxsize=16)
 def _column(ph, mass, U, G_a, G_b, form):
-    return refs.steady_column(mass, U, ph, G_a, G_b, form)
+    return bed_expansion.steady_column(mass, U, ph, G_a, G_b, form)
 
 
 @lru_cache(maxsize=16)
 def _sedimentation(ph, theta0, H0, G_a, G_b, form):
-    return refs.batch_sedimentation(theta0, H0, ph, G_a, G_b, form)
+    return kynch.batch_sedimentation(theta0, H0, ph, G_a, G_b, form)
 
 
 def mass(cfg):
@@ -79,14 +79,14 @@ def mass(cfg):
 
 
 def end_state(cfg):
-    """The layer's steady state (refs.Column): the hydrostatic sediment (U = 0, or no gas), else the steady
+    """The layer's steady state (bed_expansion.Column): the hydrostatic sediment (U = 0, or no gas), else the steady
     column at U with the layer's mass."""
     U = cfg.gas.U if cfg.gas is not None else 0.0
     return _column(phases(cfg), mass(cfg), U, cfg.G_a, cfg.G_b, form(cfg))
 
 
 def sedimentation(cfg):
-    """Kynch's solution for the layer (refs.Sedimentation)."""
+    """Kynch's solution for the layer (kynch.Sedimentation)."""
     return _sedimentation(phases(cfg), cfg.theta0, layer_height(cfg), cfg.G_a, cfg.G_b, form(cfg))
 
 
@@ -148,7 +148,7 @@ class Numbers:
     drop theta0 (rho_s - rho_g) |g| H0 across the layer, and with a gas: Stokes's terminal velocity u_t, the
     drag time tau at theta0 (along the column, at the slip that carries the weight:
     refs.settling_relaxation_time), Ergun's minimum fluidisation velocity U_mf at theta0
-    (refs.minimum_fluidization_velocity), and Wallis's two wave speeds (:class:`voidage_waves.Bed`) at
+    (bed_expansion.minimum_fluidization_velocity), and Wallis's two wave speeds (:class:`voidage_waves.Bed`) at
     ``theta_wallis`` (a fed bed's uniform interior theta*, else theta0): the elastic c_d = sqrt(p_s'/rho_s)
     and the kinematic c_k of the run's closure. Without a gas those are NaN."""
     theta0: float
@@ -186,7 +186,7 @@ def numbers(cfg):
                             limits.dpressure(theta, cfg.G_a, cfg.G_b, form(cfg)), gas.model)
     return Numbers(cfg.theta0, H0, gas.U, cfg.theta0 * ph.buoyant * H0, u_t=ph.u_t,
                    tau=refs.settling_relaxation_time(cfg.theta0, ph),
-                   U_mf=refs.minimum_fluidization_velocity(cfg.theta0, ph), theta_wallis=theta,
+                   U_mf=bed_expansion.minimum_fluidization_velocity(cfg.theta0, ph), theta_wallis=theta,
                    c_d=bed.elastic_speed(), c_k=bed.kinematic_speed())
 
 
@@ -195,7 +195,7 @@ def file_attributes(cfg):
     dp_bed [Pa], the pressure drop across the layer at its buoyant weight theta0 (rho_s - rho_g) |g| H0."""
     gas, H0 = cfg.gas, layer_height(cfg)
     buoyant = phases(cfg).buoyant
-    U_mf = refs.minimum_fluidization_velocity(cfg.theta0, phases(cfg)) if gas is not None else math.nan
+    U_mf = bed_expansion.minimum_fluidization_velocity(cfg.theta0, phases(cfg)) if gas is not None else math.nan
     return {"H0": H0, "U": gas.U if gas is not None else 0.0, "U_mf": U_mf, "dp_bed": cfg.theta0 * buoyant * H0}
 
 

@@ -25,7 +25,7 @@ def _weight(cfg):
 
 def reference(cfg, x, t):
     """The balance at rest without gas flow; a column fed at U > 0 has drag in its balance (no reference
-    here: the steady column is parsph.physics.gas_references.steady_column, with a free top)."""
+    here: the steady column is parsph.physics.bed_expansion.steady_column, with a free top)."""
     if cfg.gas is not None and (cfg.gas.U > 0 or not cfg.gas.fed):
         return {}
     theta = settling_equilibrium(x, cfg.theta0, cfg.L, cfg.rho_s, _weight(cfg), cfg.G_a, cfg.G_b)
