@@ -30,7 +30,7 @@ from parsph.gas import darcy, deposit, permeability
 from parsph.gas.grid import grid_of
 from parsph.parallel.grid_sum import GridSum
 from parsph.physics.drag import STOKES, rate
-from parsph.setup.config import K_MAX_FACTOR
+from parsph.setup.gas_config import K_MAX_FACTOR
 from parsph.sph import body_force, pass_data
 
 

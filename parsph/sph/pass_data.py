@@ -42,7 +42,7 @@ class Switches(NamedTuple):
 
 
 class GasConstants(NamedTuple):
-    """The gas of a run with drag (config.Gas) as the loops take it (zeros where there is none)."""
+    """The gas of a run with drag (gas_config.Gas) as the loops take it (zeros where there is none)."""
     model: int        # parsph.physics.drag.MODELS
     rho: float        # [kg/m^3]
     mu: float         # [Pa s]
