@@ -2,10 +2,10 @@
 voids, its heights and the walls' backstop (docs/validation.md, "A bed past Wallis's bound").
 
     .venv/bin/python scripts/floor_bed.py [--U 0.15] [--Ly 0.02] [--L 0.08] [--Nx 400] [--G_b -3.0] [--t 1.5]
-                                          [--from 0.5]
+                                          [--from 0.5] [--set KEY=VALUE ...]
 
 run/fluidized_bed_air.toml (0.3 mm grains in air, theta0 = 0.6, H0 = 3 cm) with ``gas.flow = "solved"`` and
-the values given (the defaults: 2.2 U_mf, 2 cm wide, 15,000 particles), one rank, to --t
+the values given (the defaults: 2.2 U_mf, 2 cm wide, 15,000 particles) and any further ``--set``, one rank, to --t
 (:func:`parsph.studies.voidage.floor_bed`). Prints per 0.1 s the smallest theta of the grid's cells below the
 bed's median height (a void reads near 0; the packed bed 0.6), the heights below which 5%, 50% and 95% of the
 mass lies and the pressure drop over the weight; then the drop averaged from --from to the end, and how many
@@ -27,9 +27,10 @@ def main():
     ap.add_argument("--G_b", type=float, default=-3.0)
     ap.add_argument("--t", type=float, default=1.5)
     ap.add_argument("--from", dest="t0", type=float, default=0.5)
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a further run-file value")
     a = ap.parse_args()
     b = floor_bed([f"material.G_b={a.G_b!r}", f"domain.Ly={a.Ly!r}", f"domain.L={a.L!r}", f"numerics.Nx={a.Nx}",
-                   f"gas.U={a.U!r}"], t_end=a.t)
+                   f"gas.U={a.U!r}", *a.set], t_end=a.t)
     print("| t [s] | theta_min below the median height | h5 / h50 / h95 [mm] | drop / weight |")
     print("| --- | --- | --- | --- |")
     for t0 in np.arange(0.0, a.t - 1e-9, 0.1):
