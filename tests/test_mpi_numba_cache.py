@@ -39,7 +39,7 @@ def job(cache, n=3, **env):
 
 @pytest.fixture(scope="module")
 def first_job(tmp_path_factory):
-    """A 3-rank run of 3 steps, a progress line after each, on a cache without the passes of FRESH.
+    """A 3-rank run of 3 steps, a progress line after each compiled block, on a cache without the passes of FRESH.
 
     The module compiles once and every test below starts from this cache (the limit only catches a hang)."""
     cache = tmp_path_factory.mktemp("numba_cache") / "numba"
@@ -76,7 +76,10 @@ def test_a_run_that_compiles_says_so_and_gives_no_rate_for_its_first_step(first_
     steps = [k for k, ln in enumerate(lines) if ln.startswith("  step")]
     banner = next(k for k, ln in enumerate(lines) if ln.startswith("parsph couette:"))
     assert banner < lines.index(f"  {COMPILING}") < steps[0], first
-    assert [lines[k].split()[1] for k in steps] == ["1/3", "2/3", "3/3"], first
+    # a line per compiled block: the first step is a block of its own; steps 2 and 3 share one where the
+    # first block ran fast (its compile done before it), as numba's cache decides
+    shown = [lines[k].split()[1] for k in steps]
+    assert shown in (["1/3", "2/3", "3/3"], ["1/3", "3/3"]), first
     assert "first step (compiling took" in lines[steps[0]] and "left" not in lines[steps[0]], lines[steps[0]]
     for k in steps[1:]:
         assert re.search(r"particle-steps/s  left \d+m\d\ds$", lines[k]), lines[k]
