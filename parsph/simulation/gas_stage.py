@@ -72,11 +72,11 @@ class GasStage:
 
     def __call__(self, ps, step, t):
         """ps.flux of the owned particles for the state at ``step``, ``t`` (a solve where one is due)."""
-        if self.j is None or self.every == 1 or (step % self.every == 0 and step != self.solved_at):
+        due = self.j is None or self.every == 1 or (step % self.every == 0 and step != self.solved_at)
+        if due:
             self.solve(ps, step, t)
-            self._interpolate(ps)
-        else:  # between solves: the rates at the slip toward the last solve's flux
-            self._interpolate(ps)
+        self._interpolate(ps)
+        if not due:  # between solves: the rates at the slip toward the last solve's flux
             self._rates(ps, ps.flux, ps.drag_rate)
 
     def _interpolate(self, ps):

@@ -34,7 +34,6 @@ def finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, dr
                 acc[k, 2] = 0.0
 
 
-
 @njit(cache=True, inline="always")
 def stream_slip2(k, vf, u0, u1, u2, three_d):
     """|u_g - v_k|^2 in a stream u_g = (u0, u1, u2): the sum of (u_d - v_k,d)^2 over the components d.
@@ -92,8 +91,8 @@ def drag_rates(n_own, vel, theta, rho_s, model, rho_g, mu_g, d_grain, flow, axis
     """K[k] = :func:`parsph.physics.drag.rate` at (theta_k, |u_g,k - v_k|^2) for k < n_own, walls included
     (unused there): one loop per closure and kind of gas flow, each branch-free (the model a constant) so that
     it runs on vector registers, fastmath's log, exp and atan included. Plain arguments, as drag_plain's;
-    :func:`parsph.sph.momentum._momentum_threaded` calls it on chunks of the arrays in parallel (a parallel loop of these bodies
-    took about 20 s to compile per version). ``flux``: the solved gas's j per particle (else unread).
+    :func:`parsph.sph.momentum._momentum_threaded` calls it on chunks of the arrays in parallel (a parallel
+    loop of these bodies took about 20 s to compile per version). ``flux``: the solved gas's j per particle (else unread).
     ``flow`` SOLVED: K is the solved gas's stage's (the rates it deposited on the grid, so that the drag the
     grains feel is the grid's -grad p' exactly) and left as it is; TOWARD_FLUX: at the slip toward ``flux``
     (what that stage computes)."""
@@ -141,6 +140,20 @@ def drag_plain(k, vel, eps, flow, axis, sign, U, u, flux, acc, drag, Kk, three_d
     The components written out (``three_d`` a switch; u has 3): a loop over vel.shape[1] took longer; every
     array read unconditionally (``flux`` only in the solved gas, the one flow that has it), else numba counts
     its references per particle."""
+    c0, c1, c2, w0, w1, w2 = drag_terms(k, eps, flow, axis, sign, U, u, flux, Kk, three_d)
+    acc[k, 0] += c0 * (w0 - vel[k, 0])
+    acc[k, 1] += c1 * (w1 - vel[k, 1])
+    drag[k, 0] = c0
+    drag[k, 1] = c1
+    if len(three_d):
+        acc[k, 2] += c2 * (w2 - vel[k, 2])
+        drag[k, 2] = c2
+
+
+@njit(cache=True, inline="always")
+def drag_terms(k, eps, flow, axis, sign, U, u, flux, Kk, three_d):
+    """(C_x, C_y, C_z, w_x, w_y, w_z) of particle k's drag C (w - v) per component (:func:`drag_plain` says
+    what they are in each flow); walls.rest_drag takes C w, the drag at rest."""
     c0 = Kk
     c1 = Kk
     c2 = Kk
@@ -164,10 +177,4 @@ def drag_plain(k, vel, eps, flow, axis, sign, U, u, flux, acc, drag, Kk, three_d
         w1 = flux[k, 1]
         if len(three_d):
             w2 = flux[k, 2]
-    acc[k, 0] += c0 * (w0 - vel[k, 0])
-    acc[k, 1] += c1 * (w1 - vel[k, 1])
-    drag[k, 0] = c0
-    drag[k, 1] = c1
-    if len(three_d):
-        acc[k, 2] += c2 * (w2 - vel[k, 2])
-        drag[k, 2] = c2
+    return c0, c1, c2, w0, w1, w2

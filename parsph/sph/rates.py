@@ -54,8 +54,8 @@ class Rates:
         self.neighbours = nlist
         mirror = len(self.switches.mirror) > 0
         wall_pairs = nlist.wall_pairs() if mirror else np.zeros(0, np.int64)
-        if len(self.wall_share) < n:
-            self.wall_share = np.zeros(self._cap if mirror else 0)
+        if mirror and len(self.wall_share) < n:
+            self.wall_share = np.zeros(self._cap)
         self.list = pass_data.PairList(nlist.order, nlist.pstart, nlist.pi, nlist.pj, nlist.need, n, nlist.npairs,
                                        self.fp, self.rho_sum, self.fields, self.cstart, self.cj, self.cf,
                                        wall_pairs, self.wall_share)

@@ -27,10 +27,11 @@ from numba import njit
 
 from parsph.physics.closures import modulus_unchecked
 from parsph.physics.kernels import kernel_w_f
+from .body_force import drag_terms
 from .momentum import pressure_factor
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
 from .particles import FLUID
-from .pass_data import COLUMN, INV_RHO, INV_THETA, PRESS, SOLVED, THETA, VX, VY, VZ
+from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ
 
 LN10 = math.log(10.0)
 SHARE_MAX = 0.9  # phi_i above this (a particle beyond the plate, which the checks stop) is taken as this
@@ -91,15 +92,10 @@ def renormalise(lst, parts, c, sw):
 
 
 @njit(cache=True, inline="always")
-def rest_drag(i, flow, axis, sign, U, u, flux, K, eps):
-    """The drag acceleration on particle i were it at rest, C w per component (body_force.drag_plain's C and w)."""
-    if flow == COLUMN:
-        ce = K / eps * sign * U
-        return (ce if axis == 0 else 0.0), (ce if axis == 1 else 0.0), (ce if axis == 2 else 0.0)
-    if flow == SOLVED:
-        ce = K / eps
-        return ce * flux[i, 0], ce * flux[i, 1], (ce * flux[i, 2] if flux.shape[1] == 3 else 0.0)
-    return K * u[0], K * u[1], K * u[2]
+def rest_drag(i, flow, axis, sign, U, u, flux, K, eps, three_d):
+    """The drag acceleration on particle i were it at rest, C w per component (body_force.drag_terms)."""
+    c0, c1, c2, w0, w1, w2 = drag_terms(i, eps, flow, axis, sign, U, u, flux, K, three_d)
+    return c0 * w0, c1 * w1, c2 * w2
 
 
 @njit(cache=True, inline="always")
@@ -141,7 +137,7 @@ def forces(lst, parts, c, sw):
         ax, ay, az = c.g[0], c.g[1], c.g[2]
         if len(sw.drag):
             dx_, dy_, dz_ = rest_drag(i, gas.flow, gas.axis, gas.sign, gas.U, gas.u, parts.flux,
-                                      parts.drag_rate[i], 1.0 - th_i)
+                                      parts.drag_rate[i], 1.0 - th_i, three_d)
             ax += dx_
             ay += dy_
             az += dz_
