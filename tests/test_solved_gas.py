@@ -336,6 +336,9 @@ def test_a_failed_solve_is_one_line_naming_step_and_time():
     sim.take_steps(3)
 
     class Singular:  # what darcy.Darcy raises where LAPACK or SuperLU finds no answer
+        def start(self):
+            return None, None
+
         def solve(self, K, V):
             raise darcy.SolveFailed("the pressure is not finite")
     sim.gas.darcy = Singular()
@@ -347,3 +350,71 @@ def test_a_failed_solve_is_one_line_naming_step_and_time():
     def failing():
         raise SolveError(msg)
     assert reporting(MPI.COMM_SELF, failing) == EXIT_GUARD
+
+
+# ---- the preconditioned solves: an earlier K's factor, warm started -------------------------------------
+@pytest.mark.parametrize("periodic", [False, True])
+def test_preconditioned_solves_agree_with_factorising_ones(periodic):
+    """A sequence of K drifting by 0.3% a solve (in every cell, at random) (and one jump by 100x in a block of cells): the solves that
+    reuse an old factor give the factorising solve's p' and fluxes within 1e-8, and factorise half as often or less."""
+    rng = np.random.default_rng(5)
+    nx, ny, hx, hy = 20, 30, 1e-3, 1e-3
+    if periodic:
+        args = (None, None, 0.02)
+    else:
+        args = ((darcy.Side("flux", rng.uniform(0.01, 0.02, ny)), darcy.Side("pressure", 0.0)), None, None)
+    reusing = darcy.Darcy(nx, ny, hx, hy, *args)
+    fresh = darcy.Darcy(nx, ny, hx, hy, *args, reuse=False)
+    K = 10 ** rng.uniform(-6, -5, (nx, ny))
+    V = rng.normal(scale=1e-3, size=(nx, ny, 2))
+    for step in range(30):
+        K = K * (1 + 0.003 * rng.normal(size=K.shape))
+        V = V + 1e-4 * rng.normal(size=V.shape)
+        if step == 15:
+            K[5:9, 10:14] *= 100.0
+        a, b = reusing.solve(K, V), fresh.solve(K, V)
+        scale = np.abs(b.p).max()
+        assert np.abs(a.p - b.p).max() < 1e-8 * scale, step
+        assert np.abs(a.jx - b.jx).max() < 1e-8 * np.abs(b.jx).max(), step
+    assert fresh.factorisations == 30
+    assert reusing.factorisations <= 15, reusing.factorisations
+
+
+def test_restored_start_makes_the_same_solve():
+    """start() and restore() (a restart point's /grid/start): the next solve is the same to the bit."""
+    rng = np.random.default_rng(8)
+    nx, ny = 12, 16
+    sides = (darcy.Side("flux", 0.01), darcy.Side("pressure", 0.0))
+    a = darcy.Darcy(nx, ny, 1e-3, 1e-3, sides, None)
+    K = 10 ** rng.uniform(-6, -5, (nx, ny))
+    V = rng.normal(scale=1e-3, size=(nx, ny, 2))
+    a.solve(K, V)
+    K2 = K * (1 + 0.02 * rng.normal(size=K.shape))
+    factor_K, warm = a.start()
+    assert factor_K is not None
+    b = darcy.Darcy(nx, ny, 1e-3, 1e-3, sides, None)
+    b.restore(factor_K, list(warm))
+    pa, pb = a.solve(K2, V), b.solve(K2, V)
+    assert a.iterations > 0 and a.iterations == b.iterations
+    assert np.array_equal(pa.p, pb.p) and np.array_equal(pa.jx, pb.jx)
+
+
+def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
+    """Each output of a solved run has /grid (docs/output.md): theta on the cells, whose sum times the cell's
+    area is the grains' volume per metre of z (sum of m / rho_s, to the deposit's fixed point), and p', j, u_g
+    of the same shape; /grid/start for a restart."""
+    import h5py
+    from parsph.simulation.case import run_case
+    cfg = layers.load(layers.BED, ['gas.flow="solved"', "domain.L=0.004", "numerics.Nx=20", "domain.Ly=0.0024",
+                                   "scene.height=0.0016", "numerics.dt=5e-5", "output.t_end=0.004",
+                                   "output.times=[0.002, 0.004]", "output.snapshots=true"])
+    run_case(MPI.COMM_SELF, cfg, str(tmp_path), "bed")
+    with h5py.File(tmp_path / "bed_0001.h5", "r") as f:
+        g = f["grid"]
+        hx, hy = g.attrs["cell"]
+        theta = g["theta"][()]
+        fluid = f["particles/kind"][()] == 0
+        volume = f["particles/mass"][()][fluid].sum() / cfg.rho_s
+        assert theta.sum() * hx * hy == pytest.approx(volume, rel=1e-9)
+        assert g["p"].shape == theta.shape and g["j"].shape == g["u_g"].shape == theta.shape + (2,)
+        assert "start/warm" in g and g.attrs["start_solved_at"] >= 0

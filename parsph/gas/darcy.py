@@ -10,14 +10,22 @@ boundary face (V_f = 0 there). A side is periodic, or has a given normal flux (a
 closes it), or a given pressure at the face (p' = 0: an open top); a periodic x may carry a given mean
 flux (:class:`Darcy`'s ``mean_flux``). The matrix is symmetric positive
 definite (semi-definite where no side has a given pressure: then p' is pinned to 0 in the first cell, as its
-constant is free). Direct solves, no iteration to fail: where x has sides the cells are numbered along y
+constant is free). The solves are a well-kept library's: where x has sides the cells are numbered along y
 first, so the matrix is a band of half-width ny (periodic y included) and LAPACK's banded Cholesky
-(scipy.linalg.solveh_banded) solves it, 2-3x faster than SuperLU on the grids of a bed (0.7 against 1.7 ms on
-50 x 25 cells); else scipy's sparse LU (SuperLU). A matrix that is not positive definite or a non-finite
-result raises :class:`SolveFailed`.
+(scipy.linalg.cholesky_banded) factorises it, 2-3x faster than SuperLU on the grids of a bed; else scipy's
+sparse LU (SuperLU).
+
+A factorisation costs 20 times its use (5.4 ms against 0.29 on 37 x 112 cells), and K changes little from
+one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
+preconditioned with it, started from the last solve's p' (:data:`RTOL`: until every cell's flux imbalance
+is below 1e-10 of the largest given one); a solve that needs more than :data:`REFRESH_ITER` iterations makes
+the next one factorise afresh, and one that has not converged in :data:`MAX_ITER` factorises at once. What a
+solve starts from (the factor's K and the warm start) is :meth:`Darcy.start`, which a restart point keeps
+so that a restarted run makes the same solves. A matrix that is not positive definite or a non-finite result
+raises :class:`SolveFailed`.
 
 :class:`Darcy` keeps the matrix's pattern of one grid and its sides, and fills its values, the right-hand side
-and the fluxes in numba loops (a solve on 1,200 cells: about 0.2 ms beside SuperLU's own time).
+and the fluxes in numba loops.
 """
 from dataclasses import dataclass
 
@@ -28,6 +36,9 @@ import scipy.sparse.linalg as spla
 from numba import njit
 
 PERIODIC, FLUX, PRESSURE = 0, 1, 2
+RTOL = 1e-10       # the preconditioned solve's end: max |residual| <= RTOL max |right-hand side|
+MAX_ITER = 12      # iterations before the solve gives up on the old factor and factorises
+REFRESH_ITER = 4   # a solve that needed more makes the next one factorise
 KINDS = {"flux": FLUX, "pressure": PRESSURE}
 
 
@@ -170,6 +181,16 @@ def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, i
                 data[q] += data[q] if data[q] != 0.0 else 1.0
 
 
+@njit(cache=True)
+def _matvec(indptr, indices, data, x, out):
+    """out = A x for A in CSR form."""
+    for r in range(len(indptr) - 1):
+        acc = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            acc += data[q] * x[indices[q]]
+        out[r] = acc
+
+
 class Darcy:
     """The solve on one grid (nx x ny cells of hx x hy) with its sides: ``x_sides`` = (low, high)
     :class:`Side` at x = 0 and x = nx hx, None for periodic; likewise ``y_sides``. Periodic axes need 3
@@ -177,9 +198,11 @@ class Darcy:
 
     ``mean_flux`` (x periodic): the mixture's flux through every cross-section of x, per unit length of it
     (a box periodic along gravity fed at U). Then p' = p~ - G x, p~ periodic: the solve for p~ with G = 0 and
-    with the unit G (one factorisation, two right-hand sides), superposed with the G that carries the flux."""
+    with the unit G (one matrix, two right-hand sides), superposed with the G that carries the flux.
 
-    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None):
+    ``reuse`` False: every solve factorises (the reference the preconditioned solves are measured against)."""
+
+    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None, reuse=True):
         if mean_flux is not None and x_sides is not None:
             raise ValueError("a mean flux drives a periodic x only")
         self.mean_flux = mean_flux
@@ -222,6 +245,70 @@ class Darcy:
         self.band_at = (ny + rows_of[self.upper] - self.indices[self.upper], self.indices[self.upper])
         self.banded = x_sides is not None
         self.rhs = np.zeros(nx * ny)
+        self.unit_rhs = np.zeros(nx * ny)
+        self.unit_data = np.zeros_like(self.data)
+        self.ab = np.zeros((ny + 1, nx * ny)) if self.banded else None
+        self.reuse = reuse
+        self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
+        self.factor_K = None
+        self.warm = None       # the last solve's p' (and the unit gradient's, with a mean flux)
+        self.iterations = 0    # the last solve's (0: it factorised)
+        self.factorisations = 0
+
+    def start(self):
+        """What the next solve starts from: the K whose factor preconditions it (None: it factorises) and the
+        warm start, a tuple of flat arrays (None); what a restart point keeps."""
+        return (self.factor_K if self._factor is not None else None), self.warm
+
+    def restore(self, factor_K, warm):
+        """Start from :meth:`start`'s values (a restart's): the factor of factor_K's matrix, made again."""
+        self.warm = None if warm is None else tuple(np.array(w, float) for w in warm)
+        self._factor, self.factor_K = None, None
+        if factor_K is not None:
+            K = np.ascontiguousarray(factor_K, float)
+            _assemble(K, np.zeros(K.shape + (2,)), self.hx, self.hy, self.kinds, *self.values, self.indptr,
+                      self.indices, self.data, np.zeros(self.nx * self.ny), self.pin, 0.0)
+            self._factorise(K)
+
+    def _factorise(self, K):
+        n = self.nx * self.ny
+        if self.banded:
+            self.ab[:] = 0.0
+            self.ab[self.band_at] = self.data[self.upper]
+            c = sla.cholesky_banded(self.ab, check_finite=False)
+            self._factor = lambda b: sla.cho_solve_banded((c, False), b, check_finite=False)
+        else:
+            self._factor = spla.splu(sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr),
+                                                                 shape=(n, n)))).solve
+        self.factor_K = K.copy()
+        self.factorisations += 1
+
+    def _pcg(self, b, x0):
+        """A x = b by conjugate gradients preconditioned with the kept factor, from x0; (x, iterations), x
+        None where it has not converged in MAX_ITER."""
+        scale = np.abs(b).max()
+        if scale == 0.0:
+            return np.zeros_like(b), 0
+        x = x0.copy()
+        r = np.empty_like(b)
+        _matvec(self.indptr, self.indices, self.data, x, r)
+        r = b - r
+        Ap = np.empty_like(b)
+        rz_old, d = 0.0, None
+        for it in range(MAX_ITER + 1):
+            if np.abs(r).max() <= RTOL * scale:
+                return x, it
+            if it == MAX_ITER or not np.isfinite(r).all():
+                break
+            z = self._factor(r)
+            rz = r @ z
+            d = z if d is None else z + (rz / rz_old) * d
+            _matvec(self.indptr, self.indices, self.data, d, Ap)
+            alpha = rz / (d @ Ap)
+            x += alpha * d
+            r -= alpha * Ap
+            rz_old = rz
+        return None, MAX_ITER
 
     def solve(self, K, V):
         """p' and the faces' fluxes for K (nx, ny) [m^2/(Pa s)] and V (nx, ny, 2) [m/s]."""
@@ -229,29 +316,38 @@ class Darcy:
         V = np.ascontiguousarray(V, float)
         _assemble(K, V, self.hx, self.hy, self.kinds, *self.values, self.indptr, self.indices, self.data,
                   self.rhs, self.pin, 0.0)
-        n, shape = self.nx * self.ny, (self.nx, self.ny)
+        rhs = [self.rhs]
+        if self.mean_flux is not None:  # the unit gradient's right-hand side, on the same matrix
+            _assemble(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, self.indptr, self.indices,
+                      self.unit_data, self.unit_rhs, self.pin, 1.0)
+            rhs.append(self.unit_rhs)
+        shape = (self.nx, self.ny)
         with np.errstate(all="ignore"):
-            try:
-                if self.banded:
-                    ab = np.zeros((self.ny + 1, n))
-                    ab[self.band_at] = self.data[self.upper]
-                    p = sla.solveh_banded(ab, self.rhs, check_finite=False)
-                elif self.mean_flux is None:
-                    p = spla.spsolve(sp.csr_matrix((self.data, self.indices, self.indptr), shape=(n, n)), self.rhs)
-                else:
-                    lu = spla.splu(sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr), shape=(n, n))))
-                    p = lu.solve(self.rhs)
-                    unit_rhs = np.zeros(n)
-                    _assemble(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, self.indptr,
-                              self.indices, np.zeros_like(self.data), unit_rhs, self.pin, 1.0)
-                    p1 = lu.solve(unit_rhs)
-            except (RuntimeError, np.linalg.LinAlgError, ValueError) as e:  # a singular or indefinite matrix
-                raise SolveFailed(str(e)) from None
-        if not np.all(np.isfinite(p)):
+            ps = None
+            if self.reuse and self._factor is not None and self.warm is not None:
+                tried = [self._pcg(b, w) for b, w in zip(rhs, self.warm)]
+                self.iterations = max(it for _, it in tried)
+                if all(x is not None for x, _ in tried):
+                    ps = [x for x, _ in tried]
+            if ps is None:
+                try:
+                    self._factorise(K)
+                    ps = [self._factor(b) for b in rhs]
+                except (RuntimeError, np.linalg.LinAlgError, ValueError) as e:  # singular or indefinite
+                    self._factor = None
+                    raise SolveFailed(str(e)) from None
+                self.iterations = 0
+            if not self.reuse or self.iterations > REFRESH_ITER:
+                self._factor = None
+        if not all(np.all(np.isfinite(x)) for x in ps):
+            self._factor = None
             raise SolveFailed("the pressure is not finite")
+        self.warm = tuple(ps)
+        p = ps[0]
         jx, jy = np.zeros((self.nx + 1, self.ny)), np.zeros((self.nx, self.ny + 1))
         _faces(K, V, self.hx, self.hy, self.kinds, *self.values, jx, jy, p.reshape(shape), 0.0)
         if self.mean_flux is not None:
+            p1 = ps[1]
             jx1, jy1 = np.zeros_like(jx), np.zeros_like(jy)
             _faces(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, jx1, jy1, p1.reshape(shape), 1.0)
             G = (self.mean_flux * self.ny - jx[0].sum()) / jx1[0].sum()
@@ -263,5 +359,5 @@ class Darcy:
 
 
 def solve(K, V, hx, hy, x_sides=None, y_sides=None, mean_flux=None):
-    """One solve (:class:`Darcy` made for it)."""
+    """One solve (:class:`Darcy` made for it: a factorisation)."""
     return Darcy(K.shape[0], K.shape[1], hx, hy, x_sides, y_sides, mean_flux).solve(K, V)

@@ -58,12 +58,12 @@ from .files import last_snapshot, output_files, read_profile, read_snapshot
 from .hdf5 import SERIAL_ENV, collective_dxpl, parallel_hdf5_available, read_rows, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS,
                      PROFILE_OPTIONAL, PROFILE_UNITS, RESTART_FIELDS, UNITS)
-from .restart import read_particles, read_state
+from .restart import read_grid, read_particles, read_state
 from .write import Frame, Output, output_name
 from .xdmf import snapshot_entry, write_xdmf, xdmf_grid
 
 __all__ = ["BIN_ROWS", "FILE_DTYPES", "Frame", "MASS_UNITS", "MAX_BINS", "Output", "PARTICLE_FIELDS",
            "PROFILE_FIELDS", "PROFILE_OPTIONAL", "PROFILE_UNITS", "RESTART_FIELDS", "SERIAL_ENV", "UNITS", "collective_dxpl", "last_snapshot",
-           "output_files", "output_name", "parallel_hdf5_available", "read_particles", "read_profile",
+           "output_files", "output_name", "parallel_hdf5_available", "read_grid", "read_particles", "read_profile",
            "read_rows", "read_snapshot", "read_state", "snapshot_entry", "write_rows", "write_xdmf", "xdmf_grid",
            "y_bins"]

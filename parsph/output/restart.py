@@ -24,6 +24,18 @@ def read_state(path):
         return {"attrs": dict(f.attrs), "path": path}
 
 
+def read_grid(path):
+    """An output's /grid (the solved gas's cells, :class:`parsph.output.Frame`'s ``grid``) as {name: array,
+    "attrs": dict}, subgroups' names with a "/"; None where the file has none. Small: every rank reads it."""
+    with h5py.File(path, "r") as f:
+        if "grid" not in f:
+            return None
+        out = {"attrs": dict(f["grid"].attrs)}
+        f["grid"].visititems(lambda name, obj: out.__setitem__(name, obj[()]) if isinstance(obj, h5py.Dataset)
+                             else None)
+        return out
+
+
 def rows_in(f, comm, lo, hi, parallel):
     """Ascending, disjoint row ranges (a, b) of the file that hold every particle with
     lo <= y < hi (the bins of the writer ranks' rows that overlap [lo, hi)), and the

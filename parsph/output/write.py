@@ -30,6 +30,7 @@ class Frame:
     dt: float
     profile: dict
     fields: dict
+    grid: dict = None  # the solved gas's grid: {name: array} (rank-independent) and "attrs"; None without it
 
 
 def _scales(cfg):
@@ -116,6 +117,8 @@ class Output:
                 d = g.create_dataset(key, arr.shape, dtype="f8")
                 d.attrs["units"] = unit
                 write_rows(d, 0, arr if self.root else arr[:0], self.dxpl)
+        if frame.grid is not None:
+            self._grid(frame.grid, f)
         if snapshot:
             self._particles(frame.fields, f)
         # No try/finally: closing is collective, and a rank that failed mid-write
@@ -132,6 +135,21 @@ class Output:
         self.index += 1
         comm.Barrier()
         return final
+
+    def _grid(self, grid, f):
+        """/grid: the gas's fields on its cells, the same on every rank (rank 0's rows written); names with a
+        "/" go into subgroups (grid/start: what the next solve starts from, for a restart)."""
+        if f is None:
+            return
+        top = f.create_group("grid")
+        for key, val in grid.get("attrs", {}).items():
+            top.attrs[key] = val
+        for key, arr in grid.items():
+            if key == "attrs":
+                continue
+            arr = np.ascontiguousarray(arr, np.float64)
+            d = f.create_dataset("grid/" + key, arr.shape, dtype="f8")
+            write_rows(d, 0, arr if self.root else arr[:0], self.dxpl)
 
     def _particles(self, fields, f):
         """The particles, bin-sorted in y within each rank's rows, and the layout a restart reads."""

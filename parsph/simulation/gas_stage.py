@@ -68,16 +68,47 @@ class GasStage:
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
         self.rates = np.zeros(0)
         self.no_stream = np.zeros(3)
+        self.before = (None, None, (None, None))  # what the last call started from (j, solved_at, darcy's start)
         ps.add_field("flux")
 
     def __call__(self, ps, step, t):
         """ps.flux of the owned particles for the state at ``step``, ``t`` (a solve where one is due)."""
+        self.before = (self.j, self.solved_at, self.darcy.start())
         due = self.j is None or self.every == 1 or (step % self.every == 0 and step != self.solved_at)
         if due:
             self.solve(ps, step, t)
         self._interpolate(ps)
         if not due:  # between solves: the rates at the slip toward the last solve's flux
             self._rates(ps, ps.flux, ps.drag_rate)
+
+    def fields(self):
+        """What an output keeps of the grid (:class:`parsph.output.Frame`'s ``grid``): the last solve's theta,
+        p' [Pa], the mixture's flux j and the gas's velocity u_g = (j - theta V) / eps [m/s] at the cells
+        (nx, ny[, 2]), and under start/ what the last call started from, so that a restart from this state
+        makes the same solves: the flux it held, the warm start, the factor's K."""
+        sol = self.solution
+        out = {"attrs": {"cell": [self.grid.hx, self.grid.hy], "solves": self.solves}}
+        if sol is not None:
+            eps = (1.0 - sol.theta)[..., None]
+            out.update({"theta": sol.theta, "p": sol.p, "j": self.j, "u_g": (self.j - sol.theta[..., None] * sol.V) / eps})
+        j, solved_at, (factor_K, warm) = self.before
+        out["attrs"]["start_solved_at"] = -1 if solved_at is None else solved_at
+        if j is not None:
+            out["start/j"] = j
+        if warm is not None:
+            out["start/warm"] = np.stack(warm)
+        if factor_K is not None:
+            out["start/factor_K"] = factor_K
+        return out
+
+    def restore(self, grid):
+        """Start from an output's /grid (:meth:`fields`): the state before its last call, which the restart
+        makes again."""
+        solved_at = int(grid["attrs"]["start_solved_at"])
+        self.solved_at = None if solved_at < 0 else solved_at
+        self.j = grid.get("start/j")
+        warm = grid.get("start/warm")
+        self.darcy.restore(grid.get("start/factor_K"), None if warm is None else list(warm))
 
     def _interpolate(self, ps):
         g = self.grid

@@ -25,6 +25,7 @@ from collections import defaultdict
 import numpy as np
 
 from parsph.errors import Interrupted
+from parsph.output import read_grid
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
 from parsph.physics import limits
@@ -70,6 +71,10 @@ class Simulation:
             ps.add_field("drag")
             ps.add_field("drag_rate", vector=False)
         self.gas = GasStage(cfg, comm, ps) if cfg.gas is not None and cfg.gas.solved else None
+        if self.gas is not None and state is not None and "path" in state:
+            grid = read_grid(state["path"])
+            if grid is not None:  # a file without /grid: the first solve factorises
+                self.gas.restore(grid)
         self.timeline = Timeline(cfg, None if state is None else state["attrs"])
         self.keeper = ListKeeper(self.ring, self.grid, self.skin, self.collect, self.integrator.position_fields,
                                  self.timers, clock)
@@ -188,7 +193,10 @@ class Simulation:
 
     def frame(self, snapshot=True):
         """What an output writes: time, step, dt, the profile and (``snapshot``) the owned particles."""
-        return self.frames.frame(self.ps, self.timeline, snapshot)
+        frame = self.frames.frame(self.ps, self.timeline, snapshot)
+        if self.gas is not None:
+            frame.grid = self.gas.fields()
+        return frame
 
     def reflections(self):
         """Collective: how many times a grain was put back on a plate (``walls.reflect``, the layers' backstop
