@@ -43,7 +43,6 @@ def rss_run(argv):
     """Inside one rank: run the parsph CLI (of the checkout on PYTHONPATH), then record this
     process's peak RSS."""
     out = argv[0]
-    sys.path.insert(0, os.environ["PYTHONPATH"].split(os.pathsep)[0])
     from mpi4py import MPI
     from parsph import cli
     rc = cli.main(argv[1:])

@@ -1,6 +1,6 @@
 """How long parsph takes from a signal to the end of every process, on 1 rank and under mpirun -n 2.
 
-    .venv/bin/python scripts/signal_timing.py [--grace S]
+    PYTHONPATH=tests .venv/bin/python scripts/signal_timing.py [--grace S]
 
 Starts the short paper box (tests/reliability_helpers: 560 particles, t_end =
 0.5 s, no output before the end), waits for its first progress line, sends
@@ -16,9 +16,10 @@ import sys
 import tempfile
 import time
 
-# the test helpers are no installed package: tests/ on the path, as pytest puts it
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
-from reliability_helpers import common as C  # noqa: E402
+try:  # the test suite's helpers, on the path as pytest puts them (PYTHONPATH=tests)
+    from reliability_helpers import common as C
+except ImportError:
+    sys.exit("signal_timing.py: run it with PYTHONPATH=tests (it drives the suite's tests/reliability_helpers)")
 
 LONG = (*C.SHORT, "output.t_end=0.5", "output.times=[0.5]", "output.progress_interval=0.05")
 

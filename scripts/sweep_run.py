@@ -1,20 +1,16 @@
 """One run of the accuracy/speed sweep (scripts/sweep.py), in its own process.
 
-    .venv/bin/python scripts/sweep_run.py '{"Nx": 50, "kernel": "cubic_spline", ...}' [--profiles DIR] [--code DIR]
+    [PYTHONPATH=DIR/code] .venv/bin/python scripts/sweep_run.py '{"Nx": 50, "kernel": "cubic_spline", ...}' [--profiles DIR]
 
 Runs the choices given (parsph.studies.sweep: the Couette case of Table 1 with
 the run's numerics, one rank, no files but the profiles) and prints its record
-as one JSON line. ``--code DIR``: import parsph from DIR (the snapshot
-scripts/sweep.py makes), ahead of the working tree's.
+as one JSON line. scripts/sweep.py puts its snapshot of parsph (DIR/code) first
+on PYTHONPATH, ahead of the installed working tree.
 """
 import json
-import os
 import sys
 
-if "--code" in sys.argv:  # a snapshot of parsph (scripts/sweep.py makes one), ahead of the working tree
-    sys.path.insert(0, os.path.abspath(sys.argv[sys.argv.index("--code") + 1]))
-
-from parsph.studies.sweep import run_choices  # noqa: E402
+from parsph.studies.sweep import run_choices
 
 
 def main(argv):

@@ -306,9 +306,11 @@ def snapshot_code(out_dir, fresh):
 
 def _run_one(worker, key, run, out_dir, code=None):
     cmd = [*worker, json.dumps(run), "--profiles", os.path.join(out_dir, "profiles")]
-    cmd += ["--code", code] if code else []
+    env = None
+    if code:  # the snapshot's parsph ahead of the installed one (an editable install's finder comes after the path)
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [code, os.environ.get("PYTHONPATH")])))
     t0 = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO)
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, env=env)
     lines = [ln for ln in p.stdout.splitlines() if ln.startswith("{")]
     if p.returncode != 0 or not lines:
         return key, None, f"exit {p.returncode}: {p.stderr.strip()[-500:]}", time.perf_counter() - t0
@@ -322,7 +324,7 @@ def runs_file(out_dir, fresh=False):
 
 def execute(grid, out_dir, worker, jobs=1, rerun=False, max_cost=0.0, snapshot=True):
     """Run every run of ``grid`` ({run_id: (choices, groups)}) not yet in DIR/runs.jsonl, cheapest first,
-    ``jobs`` at once, each as ``worker + [choices as JSON, --profiles DIR, --code DIR]`` (a process that
+    ``jobs`` at once, each as ``worker + [choices as JSON, --profiles DIR]`` with DIR/code first on PYTHONPATH (a process that
     prints its record as its last JSON line); the keys skipped by ``max_cost`` (estimated CPU s)."""
     os.makedirs(out_dir, exist_ok=True)
     runs = runs_file(out_dir, fresh=rerun)
