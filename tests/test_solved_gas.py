@@ -419,3 +419,22 @@ def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
         assert theta.sum() * hx * hy == pytest.approx(volume, rel=1e-9)
         assert g["p"].shape == theta.shape and g["j"].shape == g["u_g"].shape == theta.shape + (2,)
         assert "start/warm" in g and g.attrs["start_solved_at"] >= 0
+
+
+def test_plot_grid_draws_each_output_and_animates_them(tmp_path):
+    """``parsph plot --grid``: a PNG per output with a grid and a GIF with one frame per output; a field the
+    grid lacks, or an animation name of another kind, is one line and exit 2 (nothing written)."""
+    from PIL import Image
+    from parsph.cli.command import main
+    from parsph.simulation.case import run_case
+    cfg = layers.load(layers.BED, ['gas.flow="solved"', "domain.L=0.004", "numerics.Nx=20", "domain.Ly=0.0024",
+                                   "scene.height=0.0016", "numerics.dt=5e-5", "output.t_end=0.004",
+                                   "output.times=[0.0, 0.002, 0.004]", "output.snapshots=false"])
+    run_case(MPI.COMM_SELF, cfg, str(tmp_path), "bed")
+    gif = tmp_path / "bed.gif"
+    assert main(["plot", str(tmp_path), "--grid", "--animate", str(gif)]) == 0
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == [f"bed_grid_theta_000{k}.png" for k in range(3)]
+    assert Image.open(gif).n_frames == 3
+    assert main(["plot", str(tmp_path), "--grid", "--field", "vy"]) == 2
+    assert main(["plot", str(tmp_path), "--grid", "--field", "p", "--animate", str(tmp_path / "x.avi")]) == 2
+    assert not list(tmp_path.glob("*_grid_p_*.png"))

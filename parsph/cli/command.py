@@ -4,6 +4,7 @@
     parsph check OUTPUT [--tol TOL]
     parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
     parsph plot OUTPUT [--png FILE] [--particles [--field vy|vx|theta] [--times T ...]]
+                       [--grid [--field theta|p] [--times T ...] [--animate FILE.gif]]
 
 The commands live in :mod:`parsph.cli.run` (run), :mod:`parsph.cli.converge`
 (converge) and :mod:`parsph.cli.report` (check, plot); the exit codes in
@@ -75,7 +76,13 @@ def build_parser():
     pl.add_argument("--particles", action="store_true",
                     help="instead: the particles of each output with particles, coloured by --field, walls marked "
                          "(3-D: the middle z-layer), as DIR/<name>_<field>_NNNN.png")
-    pl.add_argument("--field", choices=("vy", "vx", "theta"), default="vy", help="colour of --particles (default vy)")
+    pl.add_argument("--grid", action="store_true",
+                    help="instead: the solved gas's grid of each output that holds one (theta or p', upright, mm), "
+                         "as DIR/<name>_grid_<field>_NNNN.png")
+    pl.add_argument("--animate", metavar="FILE",
+                    help="with --grid: also an animation over the outputs (.gif, or .mp4 where ffmpeg is there)")
+    pl.add_argument("--field", choices=("vy", "vx", "theta", "p"), default=None,
+                    help="colour of --particles (vy, vx, theta; default vy) or --grid (theta, p; default theta)")
     pl.add_argument("--times", type=float, nargs="+", metavar="T",
                     help="--particles only at these output times [s] (default: every output with particles)")
     return p

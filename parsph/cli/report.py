@@ -141,9 +141,21 @@ def profile_png(first):
 
 
 def cmd_plot(args):
+    field = getattr(args, "field", None)
+    if getattr(args, "grid", False):
+        if getattr(args, "particles", False):
+            raise UsageError("--grid and --particles: one picture kind a call")
+        from .grid_plot import plot_grid
+        for out in _read(args.output, lambda p: plot_grid(p, field or "theta", args.times, args.animate)):
+            print(f"wrote {out}")
+        return 0
+    if getattr(args, "animate", None):
+        raise UsageError("--animate goes with --grid")
     if getattr(args, "particles", False):
         from .particles_plot import plot_particles
-        for png in _read(args.output, lambda p: plot_particles(p, args.field, args.times)):
+        if field == "p":
+            raise UsageError("--field p: the particles have vy, vx, theta (p' is the grid's: --grid)")
+        for png in _read(args.output, lambda p: plot_particles(p, field or "vy", args.times)):
             print(f"wrote {png}")
         return 0
     import matplotlib
