@@ -10,8 +10,8 @@ boundary face (V_f = 0 there). A side is periodic, or has a given normal flux (a
 closes it), or a given pressure at the face (p' = 0: an open top); a periodic x may carry a given mean
 flux (:class:`Darcy`'s ``mean_flux``). The matrix is symmetric positive
 definite (semi-definite where no side has a given pressure: then p' is pinned to 0 in the first cell, as its
-constant is free). The solves are a well-kept library's: where x has sides the cells are numbered along y
-first, so the matrix is a band of half-width ny (periodic y included) and LAPACK's banded Cholesky
+constant is free). The solves are a well-kept library's: where x has sides the cells are ordered so that
+the matrix is a narrow band (:func:`band_order`: half-width ny, or 2 nx with a periodic y folded) and LAPACK's banded Cholesky
 (scipy.linalg.cholesky_banded) factorises it, 2-3x faster than SuperLU on the grids of a bed; else scipy's
 sparse LU (SuperLU).
 
@@ -191,6 +191,23 @@ def _matvec(indptr, indices, data, x, out):
         out[r] = acc
 
 
+def band_order(nx, ny, periodic_y):
+    """The cells in the order of the narrowest band and its half-width: along y first (cell i ny + j, half-width
+    ny), or along x first with y folded where it is periodic (j = 0, ny - 1, 1, ny - 2, ...: a ring's
+    neighbours at most 2 apart, half-width 2 nx; nx without the fold) where that is narrower.
+    ``order[k]``: the cell (i ny + j) in place k."""
+    idx = np.arange(nx * ny).reshape(nx, ny)
+    across = 2 * nx if periodic_y else nx
+    if across >= ny:
+        return idx.ravel(), ny
+    js = np.arange(ny)
+    if periodic_y:  # 0, ny-1, 1, ny-2, ...
+        js = np.empty(ny, np.int64)
+        js[0::2] = np.arange((ny + 1) // 2)
+        js[1::2] = ny - 1 - np.arange(ny // 2)
+    return idx[:, js].T.ravel(), across
+
+
 class Darcy:
     """The solve on one grid (nx x ny cells of hx x hy) with its sides: ``x_sides`` = (low, high)
     :class:`Side` at x = 0 and x = nx hx, None for periodic; likewise ``y_sides``. Periodic axes need 3
@@ -239,15 +256,20 @@ class Darcy:
         self.indptr = np.concatenate([[0], np.cumsum([len(r) for r in rows])]).astype(np.int64)
         self.indices = np.concatenate(rows).astype(np.int64)
         self.data = np.zeros(len(self.indices))
-        # the band (upper form, half-width ny) where x has sides: ab[ny + r - c, c] = A[r, c] for c >= r
-        rows_of = np.repeat(np.arange(nx * ny), np.diff(self.indptr))
-        self.upper = self.indices >= rows_of
-        self.band_at = (ny + rows_of[self.upper] - self.indices[self.upper], self.indices[self.upper])
+        # the band where x has sides (upper form: ab[w + r - c, c] = A[r, c] for c >= r, in the band's order)
+        self.order, w = band_order(nx, ny, y_sides is None)
+        new = np.empty_like(self.order)
+        new[self.order] = np.arange(nx * ny)
+        rows_of = new[np.repeat(np.arange(nx * ny), np.diff(self.indptr))]
+        cols_of = new[self.indices]
+        self.upper = cols_of >= rows_of
+        self.band_at = (w + rows_of[self.upper] - cols_of[self.upper], cols_of[self.upper])
+        self.width = w
         self.banded = x_sides is not None
         self.rhs = np.zeros(nx * ny)
         self.unit_rhs = np.zeros(nx * ny)
         self.unit_data = np.zeros_like(self.data)
-        self.ab = np.zeros((ny + 1, nx * ny)) if self.banded else None
+        self.ab = np.zeros((w + 1, nx * ny)) if self.banded else None
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
         self.factor_K = None
@@ -276,7 +298,13 @@ class Darcy:
             self.ab[:] = 0.0
             self.ab[self.band_at] = self.data[self.upper]
             c = sla.cholesky_banded(self.ab, check_finite=False)
-            self._factor = lambda b: sla.cho_solve_banded((c, False), b, check_finite=False)
+            order = self.order
+
+            def factor(b):
+                x = np.empty_like(b)
+                x[order] = sla.cho_solve_banded((c, False), b[order], check_finite=False)
+                return x
+            self._factor = factor
         else:
             self._factor = spla.splu(sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr),
                                                                  shape=(n, n)))).solve
