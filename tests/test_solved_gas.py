@@ -405,7 +405,7 @@ def test_restored_start_makes_the_same_solve():
 def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
     """Each output of a solved run has /grid (docs/output.md): theta on the cells, whose sum times the cell's
     area is the grains' volume per metre of z (sum of m / rho_s, to the deposit's fixed point), and p', j, u_g
-    of the same shape; /grid/start for a restart."""
+    of the same shape; /grid/start for a restart; the XDMF sidecar shows the cells."""
     import h5py
     from parsph.simulation.case import run_case
     cfg = layers.load(layers.BED, ['gas.flow="solved"', "domain.L=0.004", "numerics.Nx=20", "domain.Ly=0.0024",
@@ -421,6 +421,17 @@ def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
         assert theta.sum() * hx * hy == pytest.approx(volume, rel=1e-9)
         assert g["p"].shape == theta.shape and g["j"].shape == g["u_g"].shape == theta.shape + (2,)
         assert "start/warm" in g and g.attrs["start_solved_at"] >= 0
+        nx, ny = theta.shape
+    # the ParaView sidecar: a "gas grid" collection, one structured grid an output, its nodes (i h_x, j h_y)
+    import xml.etree.ElementTree as ET
+    dom = ET.parse(tmp_path / "bed.xdmf").getroot().find("Domain")
+    gas = [g for g in dom.findall("Grid") if g.get("Name") == "gas grid"]
+    assert len(gas) == 1 and len(gas[0].findall("Grid")) == 2
+    topo = gas[0].find("Grid/Topology")
+    assert topo.get("TopologyType") == "2DSMesh" and topo.get("Dimensions") == f"{nx + 1} {ny + 1}"
+    with h5py.File(tmp_path / "bed.cells.h5", "r") as f:
+        nodes = f["grid_nodes"][()].reshape(nx + 1, ny + 1, 2)
+    assert np.allclose(nodes[:, 0, 0], np.arange(nx + 1) * hx) and np.allclose(nodes[0, :, 1], np.arange(ny + 1) * hy)
 
 
 def test_plot_grid_draws_each_output_and_animates_them(tmp_path):

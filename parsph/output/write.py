@@ -128,8 +128,11 @@ class Output:
         comm.Barrier()
         if self.root:
             durable_rename(part, final)
+        grid = None
+        if frame.grid is not None and "theta" in frame.grid:
+            grid = (*frame.grid["theta"].shape, *frame.grid["attrs"]["cell"])
         self.written.append(snapshot_entry(name, frame.t, bool(snapshot), self.N, cfg.dim, field, scale, cfg.L,
-                                           prof[field + "_exact"], emax, erms))
+                                           prof[field + "_exact"], emax, erms, grid))
         if self.root:
             write_xdmf(os.path.join(self.dir, self.stem + ".xdmf"), self.written)
         self.index += 1

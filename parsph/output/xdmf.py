@@ -8,6 +8,12 @@ Every grid's topology is N one-point cells (Polyvertex) with an explicit
 connectivity 0 .. N-1, held once per run in ``<name>.cells.h5``: without a
 connectivity ParaView's default reader (Xdmf3ReaderS) builds the points but no
 cells, and draws nothing.
+
+Outputs of a solved gas also hold its grid (``/grid``); a second temporal collection, "gas grid", shows
+its cells with theta and p' as cell data. Its topology is a structured mesh (2DSMesh) whose nodes,
+(x_i, y_j) = (i h_x, j h_y), are written once in ``<name>.cells.h5:/grid_nodes``: the arrays are (n_x,
+n_y) with x the slow index, and the explicit nodes put x along ParaView's X as the particles have it, so
+that the cells lie under the particles.
 """
 import json
 import os
@@ -19,13 +25,15 @@ import numpy as np
 from .layout import FILE_DTYPES
 
 
-def snapshot_entry(name, time, snapshot, n, dim, field, scale, L, exact, err_max, err_rms):
+def snapshot_entry(name, time, snapshot, n, dim, field, scale, L, exact, err_max, err_rms, grid=None):
     """What the sidecar says of one output file (a dict; ``profile`` travels as an Information
-    element so that scripts can compare ParaView's view of the particles with parsph's profile)."""
+    element so that scripts can compare ParaView's view of the particles with parsph's profile;
+    ``grid``: (n_x, n_y, h_x, h_y) of the gas grid the file holds, or None)."""
     return {"name": name, "time": float(time), "snapshot": bool(snapshot), "n": int(n), "dim": int(dim),
             "profile": {"field": str(field), "scale": float(scale), "L": float(L), "bins": len(exact),
                         "exact": [float(v) for v in exact], "err_max": float(err_max),
-                        "err_rms": float(err_rms)}}
+                        "err_rms": float(err_rms)},
+            "grid": None if grid is None else [int(grid[0]), int(grid[1]), float(grid[2]), float(grid[3])]}
 
 
 def entry_from_file(f, name):
@@ -33,9 +41,12 @@ def entry_from_file(f, name):
     a = f.attrs
     field = str(a.get("error_field", "vy"))
     g = f["profile"]
+    grid = None
+    if "grid" in f and "theta" in f["grid"]:
+        grid = (*f["grid/theta"].shape, *f["grid"].attrs["cell"])
     return snapshot_entry(name, a["time"], "particles" in f, a["n_particles"], a["dim"], field,
                           a["error_scale"] if "error_scale" in a else a["V_w"], a["L"], g[field + "_exact"][()],
-                          g.attrs["err_max"], g.attrs["err_rms"])
+                          g.attrs["err_max"], g.attrs["err_rms"], grid)
 
 
 NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -125,6 +136,38 @@ def xdmf_grid(entry, cells=None, ncells=None):
     return grid
 
 
+GRID_NODES = "/grid_nodes"
+
+
+def write_grid_nodes(path, nx, ny, hx, hy):
+    """``path``:/grid_nodes = the (n_x + 1)(n_y + 1) nodes (x_i, y_j) of the gas grid, x slow (the file made
+    or extended beside the connectivity)."""
+    x, y = np.meshgrid(np.arange(nx + 1) * hx, np.arange(ny + 1) * hy, indexing="ij")
+    nodes = np.stack([x.ravel(), y.ravel()], axis=1)
+    with h5py.File(path, "a") as f:
+        if GRID_NODES in f:
+            if f[GRID_NODES].shape == nodes.shape and np.array_equal(f[GRID_NODES][()], nodes):
+                return
+            del f[GRID_NODES]
+        d = f.create_dataset(GRID_NODES, data=nodes)
+        d.attrs["content"] = "XDMF 2DSMesh nodes of the gas grid: (x_i, y_j), i slow"
+
+
+def xdmf_gas_grid(entry, nodes_file):
+    """One time step of the gas grid: its cells with theta and p' as cell data."""
+    fname = entry["name"]
+    nx, ny = entry["grid"][:2]
+    grid = ET.Element("Grid", Name=fname + ":grid", GridType="Uniform")
+    ET.SubElement(grid, "Time", Value=repr(entry["time"]))
+    ET.SubElement(grid, "Topology", TopologyType="2DSMesh", Dimensions=f"{nx + 1} {ny + 1}")
+    geom = ET.SubElement(grid, "Geometry", GeometryType="XY")
+    _data_item(geom, nodes_file, GRID_NODES, ((nx + 1) * (ny + 1), 2), np.float64)
+    for key in ("theta", "p"):
+        attr = ET.SubElement(grid, "Attribute", Name=key, AttributeType="Scalar", Center="Cell")
+        _data_item(attr, fname, f"/grid/{key}", (nx, ny), np.float64)
+    return grid
+
+
 def write_xdmf(path, entries):
     """Rewrite the ParaView sidecar ``<stem>.xdmf``: one point set per snapshot, in time order (atomic
     rename); ``<stem>.cells.h5`` gets the connectivity when it does not hold it yet."""
@@ -138,6 +181,14 @@ def write_xdmf(path, entries):
         write_cells(os.path.join(os.path.dirname(path), cells), ncells)
         for entry in snaps:
             series.append(xdmf_grid(entry, cells, ncells))
+    gridded = [e for e in sorted(entries, key=lambda e: e["time"]) if e.get("grid")]
+    if gridded:
+        cells = cells_name(os.path.splitext(os.path.basename(path))[0])
+        write_grid_nodes(os.path.join(os.path.dirname(path), cells), *gridded[-1]["grid"])
+        gas = ET.SubElement(root.find("Domain"), "Grid", Name="gas grid", GridType="Collection",
+                            CollectionType="Temporal")
+        for entry in gridded:
+            gas.append(xdmf_gas_grid(entry, cells))
     ET.indent(root)
     with open(path + ".part", "wb") as fh:
         ET.ElementTree(root).write(fh, encoding="utf-8", xml_declaration=True)
