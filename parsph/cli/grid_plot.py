@@ -7,15 +7,14 @@ every picture of the call, so that they compare), a colour bar with units, the t
 animation is a GIF (matplotlib's Pillow writer; Pillow comes with matplotlib), or an MP4 where the name asks
 for it and ffmpeg is on the PATH.
 """
-import os
-import re
 import shutil
 
 import numpy as np
 
 from parsph.errors import UsageError
+from .particles_plot import at_times, colour_limits, png_name
 
-GRID_FIELDS = {"theta": ("theta", "theta (grains' volume fraction) [1]"), "p": ("p", "p' (gas pressure less hydrostatic) [Pa]")}
+GRID_FIELDS = {"theta": "theta (grains' volume fraction) [1]", "p": "p' (gas pressure less hydrostatic) [Pa]"}
 
 
 def grid_outputs(path, times=None):
@@ -27,29 +26,12 @@ def grid_outputs(path, times=None):
         with h5py.File(fn, "r") as f:
             if "grid" in f and "theta" in f["grid"]:
                 g = f["grid"]
-                found.append((float(f.attrs["time"]), fn, {k: g[v][()] for k, (v, _) in GRID_FIELDS.items()},
+                found.append((float(f.attrs["time"]), fn, {k: g[k][()] for k in GRID_FIELDS},
                               tuple(float(h) for h in g.attrs["cell"]), str(f.attrs["scene"])))
     found.sort(key=lambda r: r[0])
     if not found:
         raise UsageError(f"{path}: no output holds the gas's grid (only gas.flow = \"solved\" writes one)")
-    if times:
-        found = [r for r in found if any(abs(r[0] - t) <= 1e-9 * max(abs(t), 1e-300) for t in times)]
-        if not found:
-            raise UsageError("--times: no output with a grid at those times")
-    return found
-
-
-def png_name(h5, field):
-    """DIR/<stem>_grid_<field>_NNNN.png beside DIR/<stem>_NNNN.h5."""
-    m = re.match(r"(.*)_(\d{4})\.h5$", os.path.basename(h5))
-    return os.path.join(os.path.dirname(h5), f"{m.group(1)}_grid_{field}_{m.group(2)}.png")
-
-
-def _limits(rows, field):
-    vals = np.concatenate([r[2][field].ravel() for r in rows])
-    vals = vals[np.isfinite(vals)]
-    lo, hi = (float(vals.min()), float(vals.max())) if vals.size else (0.0, 1.0)
-    return (lo, hi) if hi > lo else (lo - 0.5 * max(abs(lo), 1e-12), hi + 0.5 * max(abs(hi), 1e-12))
+    return at_times(found, times, "a grid")
 
 
 def draw(ax, row, field, limits):
@@ -80,13 +62,13 @@ def plot_grid(path, field="theta", times=None, animate=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     rows = grid_outputs(path, times)
-    limits = _limits(rows, field)
+    limits = colour_limits(np.concatenate([r[2][field].ravel() for r in rows]))
     written = []
     for row in rows:
         fig, ax = plt.subplots(figsize=(6.4, 4.8))
-        fig.colorbar(draw(ax, row, field, limits), ax=ax, label=GRID_FIELDS[field][1])
+        fig.colorbar(draw(ax, row, field, limits), ax=ax, label=GRID_FIELDS[field])
         fig.tight_layout()
-        png = png_name(row[1], field)
+        png = png_name(row[1], "grid_" + field)  # DIR/<stem>_grid_<field>_NNNN.png
         fig.savefig(png, dpi=120)
         plt.close(fig)
         written.append(png)
@@ -100,7 +82,7 @@ def _animate(rows, field, limits, out):
     from matplotlib.animation import FFMpegWriter, FuncAnimation, PillowWriter
     writer = FFMpegWriter(fps=5) if out.endswith(".mp4") else PillowWriter(fps=5)
     fig, ax = plt.subplots(figsize=(6.4, 4.8))
-    fig.colorbar(draw(ax, rows[0], field, limits), ax=ax, label=GRID_FIELDS[field][1])
+    fig.colorbar(draw(ax, rows[0], field, limits), ax=ax, label=GRID_FIELDS[field])
     fig.tight_layout()
 
     def frame(k):

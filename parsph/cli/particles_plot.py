@@ -54,16 +54,31 @@ def snapshot_files(path, times):
     found.sort()
     if not found:
         raise UsageError(f"{path}: no output with particles (run with output.snapshots = true)")
+    return at_times(found, times, "particles")
+
+
+def at_times(found, times, what):
+    """The rows of ``found`` (time first, in time order) at each of ``times`` (to 1e-9 relative), all of them
+    without ``times``; a time with none is a UsageError naming it and the times there are."""
     if not times:
         return found
     chosen = []
     for t in times:
         match = [tf for tf in found if abs(tf[0] - t) <= 1e-9 * max(abs(t), 1e-300) or tf[0] == t]
         if not match:
-            raise UsageError(f"--times {t:g}: no output with particles at that time "
+            raise UsageError(f"--times {t:g}: no output with {what} at that time "
                              f"(there are: {', '.join(f'{tf[0]:g}' for tf in found)})")
         chosen.append(match[0])
     return chosen
+
+
+def colour_limits(vals):
+    """(lo, hi) of the finite ``vals`` for one colour bar, widened where they are all alike."""
+    vals = vals[np.isfinite(vals)]
+    lo, hi = (float(vals.min()), float(vals.max())) if vals.size else (0.0, 1.0)
+    if hi <= lo:
+        lo, hi = lo - 0.5 * max(abs(lo), 1e-12), hi + 0.5 * max(abs(hi), 1e-12)
+    return lo, hi
 
 
 def png_name(h5, field):
@@ -214,11 +229,7 @@ def plot_particles(path, field="vy", times=None):
     from parsph.output import read_snapshot
     chosen = snapshot_files(path, times)
     snaps = [(fn, read_snapshot(fn)) for _, fn in chosen]
-    vals = np.concatenate([field_values(s, field)[s["kind"] == FLUID] for _, s in snaps])
-    vals = vals[np.isfinite(vals)]
-    lo, hi = (float(vals.min()), float(vals.max())) if vals.size else (0.0, 1.0)
-    if hi <= lo:
-        lo, hi = lo - 0.5 * max(abs(lo), 1e-12), hi + 0.5 * max(abs(hi), 1e-12)
+    lo, hi = colour_limits(np.concatenate([field_values(s, field)[s["kind"] == FLUID] for _, s in snaps]))
     heights = layer_reference_heights([snap for _, snap in snaps])
     pngs = []
     for fn, snap in snaps:

@@ -175,15 +175,14 @@ def write_xdmf(path, entries):
     series = ET.SubElement(ET.SubElement(root, "Domain"), "Grid", Name="particles", GridType="Collection",
                            CollectionType="Temporal")
     snaps = [e for e in sorted(entries, key=lambda e: e["time"]) if e["snapshot"]]
+    cells = cells_name(os.path.splitext(os.path.basename(path))[0])
     if snaps:
         ncells = max(e["n"] for e in snaps)
-        cells = cells_name(os.path.splitext(os.path.basename(path))[0])
         write_cells(os.path.join(os.path.dirname(path), cells), ncells)
         for entry in snaps:
             series.append(xdmf_grid(entry, cells, ncells))
     gridded = [e for e in sorted(entries, key=lambda e: e["time"]) if e.get("grid")]
     if gridded:
-        cells = cells_name(os.path.splitext(os.path.basename(path))[0])
         write_grid_nodes(os.path.join(os.path.dirname(path), cells), *gridded[-1]["grid"])
         gas = ET.SubElement(root.find("Domain"), "Grid", Name="gas grid", GridType="Collection",
                             CollectionType="Temporal")

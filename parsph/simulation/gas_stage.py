@@ -90,7 +90,8 @@ class GasStage:
         out = {"attrs": {"cell": [self.grid.hx, self.grid.hy], "solves": self.solves}}
         if sol is not None:
             eps = (1.0 - sol.theta)[..., None]
-            out.update({"theta": sol.theta, "p": sol.p, "j": self.j, "u_g": (self.j - sol.theta[..., None] * sol.V) / eps})
+            out.update({"theta": sol.theta, "p": sol.p, "j": self.j,
+                        "u_g": (self.j - sol.theta[..., None] * sol.V) / eps})
         j, solved_at, (factor_K, warm) = self.before
         out["attrs"]["start_solved_at"] = -1 if solved_at is None else solved_at
         if j is not None:
