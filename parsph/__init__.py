@@ -1,8 +1,12 @@
 """parsph: SPH for the solid phase of granular two-fluid models."""
 __version__ = "0.1.0"
 
-from .compile_settings import apply as _compile_settings
-from .numba_cache import keep_in_step as _keep_in_step
+from .blas_threads import apply as _blas_threads
+
+_blas_threads()  # before numpy loads OpenBLAS
+
+from .compile_settings import apply as _compile_settings  # noqa: E402
+from .numba_cache import keep_in_step as _keep_in_step  # noqa: E402
 
 _compile_settings()  # before any loop compiles
 

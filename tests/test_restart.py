@@ -211,7 +211,7 @@ NEED_LAYER = {"scene.height"}
 # the solved gas's grid keys are refused without gas.flow = "solved", and a perturbation's two keys each without
 # the other; restart_state compares them like every key outside [output] and [checks]
 NEED_SOLVED = {"gas.cell", "gas.K_max", "gas.solve_every", "gas.jet"}
-NEED_PAIR = {"perturbation.amplitude", "perturbation.wavelength"}
+NEED_PAIR = {"perturbation.amplitude", "perturbation.wavelength", "perturbation.wavelength_y"}
 FREE_CHANGES = {
     "output.t_end": "0.01",
     "output.times": "[0.001, 0.003, 0.004]",

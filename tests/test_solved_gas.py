@@ -254,6 +254,11 @@ BED_TOML = (layers.BED.read_text())
     (['gas.flow="solved"', "gas.jet=[0.0, 0.1]"], "gas.jet"),
     (['gas.flow="solved"', "gas.jet=[0.002, 0.001, 0.1]"], "gas.jet"),
     (['gas.flow="solved"', "gas.jet=[0.0, 0.001, -0.1]"], "gas.jet"),
+    (['gas.flow="solved"', "gas.jet=[0.0, 0.001, 0.1, 0.0]"], "gas.jet"),
+    (['gas.flow="solved"', "gas.jet=[0.0, 0.001, 0.1, 0.2, 0.3]"], "gas.jet"),
+    (["perturbation.amplitude=1e-5", "perturbation.wavelength=0.06", "perturbation.wavelength_y=0.005"],
+     "perturbation.wavelength_y"),                                 # does not divide Ly = 2.4 mm
+    (["perturbation.wavelength_y=0.0024"], "perturbation.wavelength_y"),   # no amplitude
 ])
 def test_solved_gas_keys_are_checked(sets, key):
     with pytest.raises(ConfigError) as e:
@@ -325,6 +330,40 @@ def test_a_jet_feeds_its_faces_and_the_gas_leaves_through_the_lid():
     assert under.sum() == 2 and np.allclose(sol.jx[0][under], 0.05) and np.allclose(sol.jx[0][~under], cfg.gas.U)
     assert sol.jx[-1].sum() == pytest.approx(sol.jx[0].sum(), rel=1e-9)  # what comes in leaves at the top
     assert sol.jy.std() > 0  # the jet spreads sideways
+
+
+def test_a_jet_with_t_off_stops_then():
+    """gas.jet = [y0, y1, U_jet, t_off]: the faces under it fed at U_jet before t_off, at U from then on (the
+    matrix unchanged: the same factor serves)."""
+    cfg = layers.load(layers.BED, ['gas.flow="solved"', "domain.Ly=0.0048", "gas.jet=[0.0016, 0.0032, 0.05, 2e-4]",
+                                   "output.t_end=0.001", "output.times=[0.001]", "output.snapshots=false"])
+    sim = Simulation(cfg, MPI.COMM_SELF)
+    g = sim.gas.grid
+    under = ((np.arange(g.ny) + 0.5) * g.hy >= 0.0016) & ((np.arange(g.ny) + 0.5) * g.hy < 0.0032)
+    sim.take_steps(1)
+    assert sim.t < 2e-4 and np.allclose(sim.gas.solution.jx[0][under], 0.05)
+    while sim.t <= 2e-4:
+        sim.take_steps(1)
+    sim.take_steps(1)
+    assert np.allclose(sim.gas.solution.jx[0], cfg.gas.U)
+    assert sim.gas.solution.jx[-1].sum() == pytest.approx(g.ny * cfg.gas.U, rel=1e-9)
+
+
+def test_a_seed_across_y_displaces_by_its_mode():
+    """perturbation.wavelength_y: each grain moved along x by A sin(2 pi x / lambda) cos(2 pi y / lambda_y), from
+    the unperturbed lattice (the same scene without the perturbation)."""
+    from parsph.simulation.start import perturb
+    base = ["domain.Ly=0.0048"]
+    seed = ["perturbation.amplitude=4e-5", "perturbation.wavelength=0.06", "perturbation.wavelength_y=0.0024"]
+    cfg0, cfg1 = layers.load(layers.BED, base), layers.load(layers.BED, base + seed)
+    _, kind, _, pos, _ = cfg0.scene.particles(cfg0, 0.0, cfg0.Ly)
+    moved = pos.copy()
+    perturb(cfg1, kind, moved)
+    f = kind == 0
+    want = 4e-5 * np.sin(2 * np.pi * pos[f, 0] / 0.06) * np.cos(2 * np.pi * pos[f, 1] / 0.0024)
+    assert np.allclose(moved[f, 0] - pos[f, 0], want, rtol=0, atol=1e-18)
+    assert np.array_equal(moved[~f], pos[~f]) and np.array_equal(moved[:, 1], pos[:, 1])
+    assert want.max() > 3e-5 and want.min() < -3e-5   # both signs across y
 
 
 def test_a_failed_solve_is_one_line_naming_step_and_time():

@@ -137,6 +137,7 @@ class Progress:
         setup = total - compile_s - loop
         gas = ""
         if getattr(sim, "gas", None) is not None and loop > 0:  # the solved gas: its share of the time loop
-            gas = f"; the gas solve {sim.timers['gas']:.1f} s ({100 * sim.timers['gas'] / loop:.0f}% of the loop)"
+            seconds = sim.timers["gas"] - getattr(sim, "steady_timers", {}).get("gas", 0.0)  # the loop's steps
+            gas = f"; the gas solve {seconds:.1f} s ({100 * seconds / loop:.0f}% of the loop)"
         return (f"done: {steps_done} steps in {total:.1f} s: time loop {loop:.1f} s{rate}, set-up and first step "
                 f"{setup:.1f} s, compile {compile_s:.1f} s; neighbour list built {sim.rebuilds} times{gas}")

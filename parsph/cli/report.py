@@ -70,14 +70,21 @@ def _read(path, fn):
 
 
 def print_layer(path, tol=None):
-    """A layer scene's check (:func:`.layer_report.report`): print its table, return its Verdict; None for other
-    scenes. ``tol``: both the heights' (of H0) and the interior theta's tolerance (default each its own)."""
+    """A layer scene's check (:func:`.layer_report.report`; a bubbling bed's, :func:`.bed_report.report`): print
+    its table, return its Verdict; None for other scenes. ``tol``: both the heights' (of H0) and the interior
+    theta's tolerance (default each its own), or the bed's pressure drop's."""
     from parsph.output import read_profile
     from . import layer_report
+    from . import bed_report
     p = read_profile(path)
     cfg = layer_report.layer_run(p)
     if cfg is None:
         return None
+    if bed_report.bed_run(p) is not None:  # bubbling: no 1-D reference; the drop against the weight judges
+        lines, verdict = bed_report.report(path, cfg, bed_report.TOL_DROP if tol is None else tol)
+        for line in lines:
+            print(line)
+        return verdict
     tols = (layer_report.TOL_HEIGHTS, layer_report.TOL_THETA) if tol is None else (tol, tol)
     lines, verdict = layer_report.report(path, p, cfg, *tols)
     for line in lines:
@@ -91,13 +98,18 @@ def print_outputs(path, tol=None, table_tol=None):
     :func:`print_layer`). Returns (the table's worst max error or None, the layer's Verdict or None)."""
     from parsph.output import read_profile
     from . import layer_report
-    layer = _read(path, lambda q: layer_report.layer_run(read_profile(q))) is not None
-    worst = _read(path, lambda q: print_table(q, None if layer else table_tol))
+    from . import bed_report
+    p = _read(path, read_profile)
+    layer = layer_report.layer_run(p) is not None
+    # a bubbling bed has no reference for its profile (none is 1-D): no table
+    worst = None if bed_report.bed_run(p) is not None else _read(path, lambda q: print_table(q, None if layer
+                                                                                             else table_tol))
     return worst, _read(path, lambda q: print_layer(q, tol))
 
 
 def cmd_check(args):
     tol = DEFAULT_TOL if args.tol is None else args.tol
+    from .layer_report import Verdict
     worst, verdict = print_outputs(args.output, args.tol, tol)
     if verdict is not None:
         if not verdict.ok:
@@ -105,10 +117,14 @@ def cmd_check(args):
                 print(f"parsph check: {why}", file=sys.stderr)
             return EXIT_ERROR
         if verdict.judged:
-            print("parsph check: the layer's heights and interior theta within their tolerances")
-        else:
+            print("parsph check: the layer's heights and interior theta within their tolerances"
+                  if isinstance(verdict, Verdict) else
+                  "parsph check: the bed's time-averaged pressure drop within its tolerance of its weight")
+        elif isinstance(verdict, Verdict):
             print("parsph check: nothing to judge (no output with particles, and the layer in transit at every "
                   "output)")
+        else:
+            print("parsph check: nothing to judge (fewer than two outputs with a grid from checks.settle on)")
         return 0
     if worst is None:
         print("parsph check: nothing to check against")
@@ -168,6 +184,11 @@ def cmd_plot(args):
     first = output_files(args.output)[0]
     png = args.png or profile_png(first)
     cfg = layer_report.layer_run(p)
+    from . import bed_report
+    if bed_report.bed_run(p) is not None:  # a bubbling bed: its drop, heights and bubbles in time
+        png = args.png or re.sub(r"_profile\.png$", "_bed.png", profile_png(first))
+        print(f"wrote {_read(args.output, lambda path: layer_report.save(bed_report.figure(path, cfg), png))}")
+        return 0
     if cfg is not None:  # a layer: theta(x) and v_x(x), and the interface (or the bed's top and interior) in time
         print(f"wrote {layer_report.save(layer_report.profile_figure(p, cfg), png)}")
         top = layer_report.top_png(png) if png.endswith("_profile.png") else re.sub(r"(\.png)?$", "_interface.png",

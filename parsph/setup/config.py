@@ -246,10 +246,11 @@ def _pressure_term(v, scene):
 def _perturbation(v):
     """(amplitude, wavelength) of [perturbation], or None where its amplitude is 0."""
     p = v["perturbation"]
-    A, lam = p["amplitude"], p["wavelength"]
+    A, lam, lam_y = p["amplitude"], p["wavelength"], p["wavelength_y"]
     if A == 0.0:
-        if lam is not None:
-            raise ConfigError("perturbation.wavelength", "has no effect without perturbation.amplitude")
+        for key in ("wavelength", "wavelength_y"):
+            if p[key] is not None:
+                raise ConfigError(f"perturbation.{key}", "has no effect without perturbation.amplitude")
         return None
     if lam is None:
         raise ConfigError("perturbation.amplitude", "needs perturbation.wavelength [m]")
@@ -264,6 +265,13 @@ def _perturbation(v):
     if not scene.walls and abs(L / lam - round(L / lam)) > 1e-9 * L / lam:
         raise ConfigError("perturbation.wavelength", f"{lam:g} m does not divide the period domain.L = {L:g} m "
                           "(x is periodic): give L / n")
+    if lam_y is not None:
+        Ly = L if v["domain"]["Ly"] is None else v["domain"]["Ly"]
+        if v["scene"]["dim"] == 1:
+            raise ConfigError("perturbation.wavelength_y", "varies the seed across y; a 1-D scene has no y")
+        if abs(Ly / lam_y - round(Ly / lam_y)) > 1e-9 * Ly / lam_y or round(Ly / lam_y) < 1:
+            raise ConfigError("perturbation.wavelength_y", f"{lam_y:g} m does not divide the period domain.Ly = "
+                              f"{Ly:g} m (y is periodic): give Ly / n")
     return A, lam
 
 
@@ -307,6 +315,10 @@ def _time_step(v, cfg):
     for t in times:
         if not 0 <= t <= t_end * (1 + 1e-12):
             raise ConfigError("output.times", f"{t:g} s lies outside [0, t_end = {t_end:g} s]")
+    settle = v["checks"]["settle"]
+    if settle is not None and not settle < t_end:
+        raise ConfigError("checks.settle", f"{settle:g} s is not before output.t_end = {t_end:g} s: nothing would "
+                          "be averaged")
     return dict(dt=dt, dt_auto=auto, nsteps=nsteps, output_times=times, limits=limits)
 
 

@@ -31,6 +31,7 @@ class Gas:
     implicit: bool     # numerics.drag_update
     cell: float = 0.0         # solved: the grid's cell size [m]
     jet: tuple = ()           # solved: (y0, y1, U_jet) fed through the floor there instead of U
+    jet_until: float = float("inf")  # solved: the time the jet stops [s] (then U everywhere)
     K_max: float = 0.0        # solved: the cap of K in the pressure solve [m^2/(Pa s)]
     solve_every: int = 1      # solved: steps between pressure solves
 
@@ -119,13 +120,18 @@ def _solved_keys(v, dim, g, flow, gas):
     if not (g[0] < 0.0 and g[1] == 0.0):
         where = "through the floor at x = 0" if scene.walls else "along the periodic x at the mean flux gas.U"
         raise ConfigError("body_force.g", f"the solved gas is fed {where}: give gravity along -x, got {list(g)}")
-    jet = ()
+    jet, jet_until = (), float("inf")
     if gas["jet"] is not None:
         if not scene.walls:
             raise ConfigError("gas.jet", f"feeds the floor; the {scene.name} scene has none (x is periodic)")
-        if len(gas["jet"]) != 3:
-            raise ConfigError("gas.jet", f"is [y0, y1, U_jet], got {len(gas['jet'])} numbers")
-        y0, y1, U_jet = (float(x) for x in gas["jet"])
+        if len(gas["jet"]) not in (3, 4):
+            raise ConfigError("gas.jet", f"is [y0, y1, U_jet] or [y0, y1, U_jet, t_off], got {len(gas['jet'])} "
+                              "numbers")
+        y0, y1, U_jet = (float(x) for x in gas["jet"][:3])
+        if len(gas["jet"]) == 4:
+            jet_until = float(gas["jet"][3])
+            if not jet_until > 0.0:
+                raise ConfigError("gas.jet", f"t_off = {jet_until:g} s: the jet blows from t = 0 to t_off > 0")
         Ly = v["domain"]["Ly"] if v["domain"]["Ly"] is not None else v["domain"]["L"]
         if not 0.0 <= y0 < y1 <= Ly:
             raise ConfigError("gas.jet", f"needs 0 <= y0 < y1 <= domain.Ly = {Ly:g} m, got y0 = {y0:g}, y1 = {y1:g}")
@@ -133,7 +139,7 @@ def _solved_keys(v, dim, g, flow, gas):
             raise ConfigError("gas.jet", f"U_jet = {U_jet:g} m/s: the floor feeds gas, U_jet >= 0")
         jet = (y0, y1, U_jet)
     return dict(cell=float(gas["cell"] or 0.0), K_max=float(gas["K_max"] or 0.0),
-                solve_every=int(gas["solve_every"] or 1), jet=jet)
+                solve_every=int(gas["solve_every"] or 1), jet=jet, jet_until=jet_until)
 
 
 def solved_grid(gas, lat, walls):

@@ -107,8 +107,9 @@ SCHEMA = {
                          "[m^2/(Pa s)] (default 1000 K(theta0): a void carries 2 kappa U / (1 + kappa), within "
                          "0.1% of 2 U)"),
         "jet": Key("floatlist", None,
-                   doc="solved, with walls: [y0, y1, U_jet]: the floor faces whose centres lie in y0 <= y < y1 "
-                       "fed at U_jet [m/s] instead of gas.U (an orifice; a profile U(y))"),
+                   doc="solved, with walls: [y0, y1, U_jet] or [y0, y1, U_jet, t_off]: the floor faces whose "
+                       "centres lie in y0 <= y < y1 fed at U_jet [m/s] instead of gas.U (an orifice; a profile "
+                       "U(y)), until t_off [s] where given (an injected bubble), then at gas.U"),
         "solve_every": Key("int", None, lo=1, hi=10 ** 6,
                            doc="solved: the pressure solved every n steps, its flux interpolated to the particles "
                                "every step (default 1)"),
@@ -124,12 +125,20 @@ SCHEMA = {
                                            "amplitude sin(2 pi x / wavelength) at the start [m] (0: none)"),
         "wavelength": Key("float", None, positive=True,
                           doc="the perturbation's wavelength [m] (with walls any; x periodic: L / wavelength whole)"),
+        "wavelength_y": Key("float", None, positive=True,
+                            doc="the displacement times cos(2 pi y / wavelength_y) across the periodic y (a 2-D "
+                                "seed: bubbles in a bed) [m] (Ly / wavelength_y whole; none: uniform across)"),
     },
     "checks": {
         "every": Key("int", 20, lo=1, hi=2 ** 40, doc="steps between run-time checks"),
         "theta_change": Key("float", 0.5, positive=True,
                             doc="largest accepted |theta - theta0| / theta0 of a fluid particle"),
         "energy": Key("bool", True, doc="stop when the fluid's kinetic energy exceeds the scene's bound"),
+        "bubble_theta": Key("float", 0.2, positive=True, hi=1.0,
+                            doc="a bubbling bed's bubbles: the solved gas's cells with theta below this, connected"),
+        "settle": Key("float", None, nonnegative=True,
+                      doc="a bubbling bed's measures are averaged over the outputs from this time on [s] "
+                          "(default: a third of output.t_end)"),
     },
 }
 

@@ -34,10 +34,11 @@ from parsph.setup.gas_config import K_MAX_FACTOR
 from parsph.sph import body_force, pass_data
 
 
-def floor_flux(grid, gas):
-    """The gas fed through each floor face [m/s]: U, and U_jet where the face's centre lies under gas.jet."""
+def floor_flux(grid, gas, t=0.0):
+    """The gas fed through each floor face at time t [m/s]: U, and U_jet where the face's centre lies under
+    gas.jet while the jet blows (to its t_off, where one is given)."""
     U = np.full(grid.ny, gas.U)
-    if gas.jet:
+    if gas.jet and t < gas.jet_until:
         y0, y1, U_jet = gas.jet
         y = (np.arange(grid.ny) + 0.5) * grid.hy
         U[(y >= y0) & (y < y1)] = U_jet
@@ -129,6 +130,8 @@ class GasStage:
         failed = None
         passes = 1 if gas.model == STOKES else 2  # the slip-dependent closures: C at the slip of a first solve
         n = ps.n_own
+        if gas.jet_until < np.inf:  # a jet that stops: the floor's feed at this state's time
+            self.darcy.feed(floor_flux(g, gas, t))
         for p in range(passes):
             # C = K / eps along every axis, at the slip toward the first solve's flux (or none: toward the
             # particles' own velocity); the last pass's K are the particles' (ps.drag_rate: the passes read

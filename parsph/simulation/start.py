@@ -33,11 +33,16 @@ def slab_particles(cfg, ring, comm, state):
 
 def perturb(cfg, kind, pos):
     """[perturbation]: the fluid particles displaced along x by amplitude sin(2 pi x / wavelength) (a voidage
-    wave's seed; along gravity in the beds and layers), in place."""
+    wave's seed; along gravity in the beds and layers), times cos(2 pi y / wavelength_y) where that is given
+    (a seed that varies across the bed: its columns alternately lifted and lowered), in place."""
     A = cfg.get("perturbation.amplitude")
     if A:
         fluid = kind == FLUID
-        pos[fluid, 0] += A * np.sin(2.0 * np.pi * pos[fluid, 0] / cfg.get("perturbation.wavelength"))
+        dx = A * np.sin(2.0 * np.pi * pos[fluid, 0] / cfg.get("perturbation.wavelength"))
+        lam_y = cfg.get("perturbation.wavelength_y")
+        if lam_y is not None:
+            dx *= np.cos(2.0 * np.pi * pos[fluid, 1] / lam_y)
+        pos[fluid, 0] += dx
 
 
 def hold_wall_density(cfg, kernel, ps):

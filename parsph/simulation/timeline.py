@@ -57,7 +57,8 @@ class Timeline:
 class Ticker:
     """The loop's clock for progress (parsph.cli.progress): ``sim.loop_started``, ``sim.steady`` (step, t,
     clock) once the run's first step, which loads or compiles the loops and builds the first list, is done
-    (steps after it are steady), and ``progress(sim, rate, eta)`` every ``output.progress_interval`` s."""
+    (steps after it are steady) with ``sim.steady_timers``, the stage timers then, and ``progress(sim, rate,
+    eta)`` every ``output.progress_interval`` s."""
 
     def __init__(self, sim, progress):
         self.sim, self.progress = sim, progress
@@ -70,6 +71,7 @@ class Ticker:
         sim, now = self.sim, time.perf_counter()
         if sim.steady is None:
             sim.steady = (sim.step, sim.t, now)
+            sim.steady_timers = dict(getattr(sim, "timers", {}))  # the stages' seconds so far (with compiling)
         if self.progress is not None and self.interval > 0 and now - self.last >= self.interval:
             self.last = now
             rate = sim.n_total * (sim.step - self.step0) / (now - sim.loop_started)

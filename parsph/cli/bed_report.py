@@ -1,0 +1,214 @@
+"""What ``parsph check``, ``parsph run`` and ``parsph plot`` make of a bubbling bed: a bed on a floor
+(``fluidized_bed``) in the solved gas, past Wallis's bound, where no one-dimensional reference describes it
+(docs/physics.md, reference 8). Serial: the output files alone (no MPI).
+
+The verdict: the pressure drop across the bed (p' at the floor, extrapolated from the first two rows of cells
+and averaged across; the open top holds p' = 0), averaged in time over the outputs from ``checks.settle`` on,
+against the bed's buoyant weight per unit area, within :data:`TOL_DROP`. Reported beside it, for information
+(loose checks, :mod:`parsph.physics.bubbling`): the bubbles on each output's grid (:mod:`parsph.gas.bubbles`,
+cells with theta below ``checks.bubble_theta``), their rise velocity between consecutive outputs against
+0.5 sqrt(g D), the gas through them in their frame against Davidson's 4 U_mf r_b, their size against height
+and the bed's expansion.
+"""
+from dataclasses import dataclass, field
+import math
+
+import numpy as np
+
+TOL_DROP = 0.01      # the time-averaged pressure drop against the buoyant weight, relative
+RISE_EXPECTED = 0.25  # reference 8: a 2-D bubble rises at 0.5 sqrt(g D) within about this (reported, not judged)
+
+
+def bed_run(p):
+    """The run's RunConfig where it is a bed in the solved gas past Wallis's bound, else None; p is
+    read_profile's."""
+    from parsph.setup.scenes import layer
+    from .layer_report import layer_run
+    cfg = layer_run(p)
+    if cfg is None or cfg.gas is None or not cfg.gas.solved or not cfg.gas.U > 0:
+        return None
+    return cfg if layer.numbers(cfg).past_wallis else None
+
+
+@dataclass
+class Frame:
+    t: float
+    drop: float            # [Pa]
+    weight: float          # the solids' buoyant weight per unit area [Pa]
+    heights: np.ndarray    # the heights below which 5, 25, 50, 75, 95% of the mass lies [m]
+    bubbles: list
+
+
+@dataclass
+class Bed:
+    """A bubbling bed's outputs, measured."""
+    frames: list
+    pairs: list = field(default_factory=list)        # (t, parsph.gas.bubbles.Pair, throughflow [m^2/s])
+    settle: float = 0.0
+
+    def window(self):
+        return [f for f in self.frames if f.t >= self.settle]
+
+    def mean_drop(self):
+        """The drop over the weight averaged in time over the window (trapezoids between outputs); NaN with
+        fewer than two outputs in it."""
+        w = self.window()
+        if len(w) < 2:
+            return math.nan
+        t = np.array([f.t for f in w])
+        r = np.array([f.drop / f.weight for f in w])
+        return float(np.sum(0.5 * (r[1:] + r[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+
+
+def measure(path, cfg):
+    """The :class:`Bed` of a run's outputs (those with particles and a grid)."""
+    import h5py
+    from parsph.gas import bubbles
+    from parsph.output import output_files
+    from parsph.sph.particles import FLUID
+    from parsph.sph.profiles import mass_quantiles
+    g = abs(cfg.g[0])
+    threshold = cfg.get("checks.bubble_theta")
+    settle = cfg.get("checks.settle")
+    bed = Bed([], settle=cfg.get("output.t_end") / 3.0 if settle is None else settle)
+    before = None
+    for fn in output_files(path):
+        with h5py.File(fn, "r") as f:
+            if "particles" not in f or "grid" not in f or "theta" not in f["grid"]:
+                continue
+            t = float(f.attrs["time"])
+            gr = f["grid"]
+            theta, p, u_gx = gr["theta"][()], gr["p"][()], gr["u_g"][()][..., 0]
+            hx, hy = (float(c) for c in gr.attrs["cell"])
+            kind = f["particles/kind"][()]
+            fluid = kind == FLUID
+            x = f["particles/position"][()][fluid, 0]
+            m = f["particles/mass"][()][fluid]
+        weight = float(m.sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly
+        found = bubbles.find(theta, hx, hy, threshold)
+        frame = Frame(t, float(np.mean(1.5 * p[0] - 0.5 * p[1])), weight, mass_quantiles(x, m), found)
+        if before is not None and frame.t > before.t:
+            for pair in bubbles.match(before.bubbles, found, frame.t - before.t, theta.shape):
+                bed.pairs.append((frame.t, pair, bubbles.throughflow(pair.after, u_gx, hy, pair.velocity)))
+        bed.frames.append(frame)
+        before = frame
+    bed.frames.sort(key=lambda f: f.t)
+    return bed
+
+
+@dataclass
+class Verdict:
+    """The time-averaged drop's deviation from the weight (NaN where not judged) and its tolerance."""
+    drop: float
+    tol: float
+
+    @property
+    def judged(self):
+        return not math.isnan(self.drop)
+
+    @property
+    def ok(self):
+        return not abs(self.drop) > self.tol
+
+    def failures(self):
+        if self.ok:
+            return []
+        return [f"the bed's time-averaged pressure drop {self.drop * 100:+.3g}% from its buoyant weight, beyond the "
+                f"tolerance {self.tol * 100:g}%"]
+
+
+def _quartiles(values):
+    q = np.percentile(values, [25, 50, 75])
+    return f"median {q[1]:.3g} (quartiles {q[0]:.3g}-{q[2]:.3g})"
+
+
+def report(path, cfg, tol=TOL_DROP, rows=20):
+    """(lines, Verdict) of a bubbling bed's outputs; the per-output table thinned to about ``rows`` rows."""
+    from parsph.physics import bubbling
+    from parsph.setup.scenes import layer
+    n = layer.numbers(cfg)
+    bed = measure(path, cfg)
+    g = abs(cfg.g[0])
+    threshold = cfg.get("checks.bubble_theta")
+    lines = [f"bed check: a bed in the solved gas past Wallis's bound (c_d/c_k = {n.c_d / n.c_k:.3g}); U = "
+             f"{n.U:.4g} m/s = {n.U / n.U_mf:.3g} U_mf (Ergun at theta0: {n.U_mf:.4g} m/s), H0 = {n.H0 * 1e3:.4g} mm",
+             f"the pressure drop across the bed (p' at the floor) over its buoyant weight per unit area W, averaged in "
+             f"time over the outputs from t = {bed.settle:g} s; tolerance {tol * 100:g}%",
+             f"bubbles: connected cells with theta < {threshold:g}, at least 4, not open to the gas above the bed",
+             f"{'t [s]':>10} {'drop/W':>8} {'h50 [mm]':>9} {'h95 [mm]':>9} {'bubbles':>8} {'D mean [mm]':>12} "
+             f"{'D max [mm]':>11}"]
+    step = max(1, len(bed.frames) // rows)
+    for k, f in enumerate(bed.frames):
+        if k % step and k != len(bed.frames) - 1:
+            continue
+        D = [b.diameter * 1e3 for b in f.bubbles]
+        sizes = f"{np.mean(D):12.3g} {max(D):11.3g}" if D else f"{'-':>12} {'-':>11}"
+        lines.append(f"{f.t:>10.4g} {f.drop / f.weight:8.4f} {f.heights[2] * 1e3:9.2f} {f.heights[4] * 1e3:9.2f} "
+                     f"{len(f.bubbles):8d} {sizes}")
+    w = bed.window()
+    mean = bed.mean_drop()
+    verdict = Verdict(mean - 1.0 if not math.isnan(mean) else math.nan, tol)
+    if not verdict.judged:
+        lines.append(f"bed: the drop not judged (fewer than two outputs from t = {bed.settle:g} s)")
+        return lines, verdict
+    span = w[-1].t - w[0].t
+    h = np.mean([f.heights for f in w], axis=0)
+    lines.append(f"averaged over {w[0].t:g}-{w[-1].t:g} s ({span:.3g} s, {len(w)} outputs): drop/W = {mean:.5f} "
+                 f"({(mean - 1) * 100:+.2f}%); h50 = {h[2] * 1e3:.4g} mm, h95 = {h[4] * 1e3:.4g} mm (h95 / H0 = "
+                 f"{h[4] / n.H0:.3g}); {np.mean([len(f.bubbles) for f in w]):.3g} bubbles an output"
+                 + ("" if span >= 1.0 else "; under the 1 s of bubbling reference 8's average asks for"))
+    pairs = [(t, pr, q) for t, pr, q in bed.pairs if t >= bed.settle and pr.after.x > pr.diameter]
+    if pairs:
+        rise = np.array([pr.velocity / bubbling.rise_velocity(pr.diameter, g) for _, pr, _ in pairs])
+        flow = np.array([q / bubbling.throughflow(n.U_mf, 0.5 * pr.diameter) for _, pr, q in pairs])
+        D = np.array([pr.diameter for _, pr, _ in pairs]) * 1e3
+        med = float(np.median(rise))
+        lines.append(f"rise velocity: {len(pairs)} bubbles matched between consecutive outputs (D {D.min():.3g} to "
+                     f"{D.max():.3g} mm, their centres more than D above the floor); u_b / (0.5 sqrt(g D)): "
+                     f"{_quartiles(rise)}" + ("" if abs(med - 1) <= RISE_EXPECTED else
+                                              f" (outside the expected {RISE_EXPECTED * 100:g}%)"))
+        lines.append(f"gas through a bubble in its frame / Davidson's 4 U_mf r_b: {_quartiles(flow)}")
+        top = max(f.heights[4] for f in w)
+        edges = np.linspace(0.0, top, 5)
+        x = np.array([pr.after.x for _, pr, _ in pairs])
+        cells = []
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            sel = (x >= lo) & (x < hi)
+            cells.append(f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm: {D[sel].mean():.3g} mm ({sel.sum()})" if sel.any()
+                         else f"{lo * 1e3:.0f}-{hi * 1e3:.0f} mm: -")
+        lines.append("bubble size against height (mean D of the matched bubbles, their number): " + "; ".join(cells))
+    else:
+        lines.append("rise velocity: no bubble matched between consecutive outputs from t = "
+                     f"{bed.settle:g} s (outputs closer in time than a bubble's size over its rise velocity)")
+    lines.append(f"bed: the time-averaged drop {'within' if verdict.ok else 'beyond'} {tol * 100:g}% of the weight "
+                 f"({(mean - 1) * 100:+.2f}%)")
+    return lines, verdict
+
+
+def figure(path, cfg):
+    """The bed against time: its pressure drop over its buoyant weight (the averaging window shaded), the
+    heights below which 50 and 95% of its mass lies [mm] and its bubbles' count and mean diameter. A Figure."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    bed = measure(path, cfg)
+    t = np.array([f.t for f in bed.frames])
+    fig, ax = plt.subplots(3, 1, figsize=(6.4, 7.2), sharex=True)
+    ax[0].plot(t, [f.drop / f.weight for f in bed.frames], "-", lw=1)
+    ax[0].axhline(1.0, color="k", lw=0.8)
+    if t.size:
+        ax[0].axvspan(bed.settle, t[-1], color="0.9", zorder=0, label="averaged")
+    mean = bed.mean_drop()
+    ax[0].set_ylabel("drop / buoyant weight")
+    ax[0].set_title("a bubbling bed" + ("" if math.isnan(mean) else f": mean drop / weight {mean:.4f}"))
+    ax[1].plot(t, [f.heights[4] * 1e3 for f in bed.frames], "-", label="95% of the mass below")
+    ax[1].plot(t, [f.heights[2] * 1e3 for f in bed.frames], "-", label="50%")
+    ax[1].set_ylabel("height [mm]")
+    ax[1].legend(fontsize=8)
+    ax[2].plot(t, [len(f.bubbles) for f in bed.frames], "-", label="bubbles")
+    ax[2].plot(t, [np.mean([b.diameter for b in f.bubbles]) * 1e3 if f.bubbles else np.nan for f in bed.frames],
+               "-", label="their mean D [mm]")
+    ax[2].set_xlabel("t [s]")
+    ax[2].legend(fontsize=8)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,158 @@
+"""Bubbles on a grid (parsph.gas.bubbles) against shapes whose measures are known, and reference 8's throughflow
+against a grid solve past a void (reference 6 with kappa large)."""
+import math
+import re
+
+import numpy as np
+import pytest
+
+from parsph.gas import bubbles, darcy
+from parsph.physics import bubbling, inclusion
+
+
+def disk(n, ci, cj, r, shape=None, inside=0.0, outside=0.6):
+    """theta on an n x n grid (cell 1): ``inside`` where the cell centre lies within r of (ci, cj) (cell
+    coordinates of the centre, periodic along both axes), else ``outside``."""
+    i, j = np.meshgrid(np.arange(n) + 0.5, np.arange(n) + 0.5, indexing="ij")
+    di = (i - ci + n / 2) % n - n / 2
+    dj = (j - cj + n / 2) % n - n / 2
+    return np.where(di * di + dj * dj < r * r, inside, outside)
+
+
+def test_a_disk_is_one_bubble_of_its_area_and_centre():
+    theta = disk(64, 30.0, 20.0, 10.0)
+    found = bubbles.find(theta, 0.002, 0.002, 0.2)
+    assert len(found) == 1
+    b = found[0]
+    assert b.area == pytest.approx(np.count_nonzero(theta < 0.2) * 0.002 ** 2, rel=1e-12)
+    assert b.diameter == pytest.approx(2 * 10.0 * 0.002, rel=0.02)     # the pixelated circle
+    assert (b.x, b.y) == pytest.approx((30.0 * 0.002, 20.0 * 0.002), rel=1e-12)  # symmetric about its centre
+
+
+def test_a_bubble_across_the_periodic_edge_is_one_with_the_same_measures():
+    here = bubbles.find(disk(64, 30.0, 32.0, 9.0), 1.0, 1.0, 0.2)[0]
+    across = bubbles.find(disk(64, 30.0, 1.0, 9.0), 1.0, 1.0, 0.2)
+    assert len(across) == 1
+    b = across[0]
+    assert b.area == here.area
+    assert (b.x, b.y) == pytest.approx((30.0, 1.0), abs=1e-12)
+    walled = bubbles.find(disk(64, 30.0, 1.0, 9.0), 1.0, 1.0, 0.2, periodic=(False, False))
+    assert len(walled) == 2 and sum(w.area for w in walled) == here.area
+
+
+def test_small_sets_and_dense_cells_are_not_bubbles():
+    theta = np.full((20, 20), 0.6)
+    theta[5, 5] = theta[5, 6] = theta[6, 5] = 0.0            # 3 cells: below MIN_CELLS
+    theta[12:14, 12:14] = 0.19                              # 4 cells just under the threshold
+    found = bubbles.find(theta, 1.0, 1.0, 0.2)
+    assert [b.area for b in found] == [4.0]
+
+
+def test_the_clear_gas_above_the_bed_is_not_a_bubble():
+    theta = disk(64, 30.0, 20.0, 6.0)
+    theta[50:] = 0.0                                        # the freeboard, open at the top
+    theta[45:50, 40:44] = 0.0                               # a bubble erupting into it
+    found = bubbles.find(theta, 1.0, 1.0, 0.2)
+    assert [(b.x, b.y) for b in found] == [(30.0, 20.0)]
+    assert len(bubbles.find(theta, 1.0, 1.0, 0.2, open_top=False)) == 2
+
+
+def test_a_rising_bubble_is_matched_with_its_velocity():
+    dt, h = 0.02, 0.002
+    before = bubbles.find(disk(64, 20.0, 30.0, 8.0), h, h, 0.2)
+    after = bubbles.find(disk(64, 23.0, 30.0, 8.0), h, h, 0.2)
+    pairs = bubbles.match(before, after, dt, (64, 64))
+    assert len(pairs) == 1
+    assert pairs[0].velocity == pytest.approx(3 * h / dt, rel=1e-12)
+
+
+def test_a_bubble_that_split_has_no_velocity():
+    before = bubbles.find(disk(64, 20.0, 30.0, 8.0), 1.0, 1.0, 0.2)
+    theta = np.minimum(disk(64, 22.0, 25.0, 4.0), disk(64, 22.0, 35.0, 4.0))
+    after = bubbles.find(theta, 1.0, 1.0, 0.2)
+    assert len(after) == 2
+    assert bubbles.match(before, after, 0.02, (64, 64)) == []
+
+
+def test_throughflow_of_a_void_against_davidson():
+    """A void of radius a (16 cells, its centre on a node) in a bed of permeability K passing U far away (the
+    box's sides held at reference 6's exact p', so the box has no effect): the gas crossing its equator is
+    2 kappa U / (1 + kappa) times 2 a, which reference 8 gives as 4 U a as kappa -> infinity; the grid's
+    within 2% (its first-order error at 16 cells)."""
+    a_cells, n, U, kappa = 16, 128, 0.2, 1e4
+    h = 1e-3
+    a, B = a_cells * h, n * h / 2
+    theta = disk(n, n / 2, n / 2, a_cells)
+    K = np.where(theta < 0.2, kappa, 1.0)
+    xc = -B + (np.arange(n) + 0.5) * h
+    exact = lambda x, y: inclusion.pressure(x, y, a, kappa, 1.0, U)
+    sol = darcy.solve(K, np.zeros((n, n, 2)), h, h,
+                      (darcy.Side("pressure", exact(-B, xc)), darcy.Side("pressure", exact(B, xc))),
+                      (darcy.Side("pressure", exact(xc, -B)), darcy.Side("pressure", exact(xc, B))))
+    found = bubbles.find(theta, h, h, 0.2, periodic=(False, False))
+    assert len(found) == 1
+    q = bubbles.throughflow(found[0], sol.centred()[..., 0], h, 0.0)
+    assert bubbling.throughflow(U, a) == pytest.approx(2 * a * inclusion.inside_flux(1e12, U), rel=1e-9)
+    assert q == pytest.approx(2 * a * inclusion.inside_flux(kappa, U), rel=0.02)
+    assert q == pytest.approx(bubbling.throughflow(U, a), rel=0.02)
+    # in the bubble's frame: a bubble rising at u_b carries u_b 2 a less through its equator
+    assert bubbles.throughflow(found[0], sol.centred()[..., 0], h, 0.05) == pytest.approx(q - 0.05 * 2 * a,
+                                                                                          rel=1e-12)
+
+
+def test_rise_velocity():
+    assert bubbling.rise_velocity(0.04, -9.81) == pytest.approx(0.5 * math.sqrt(9.81 * 0.04), rel=1e-15)
+
+
+def test_time_average_of_the_drop_is_the_trapezoids():
+    """Bed.mean_drop: drop/weight piecewise linear between outputs, averaged from checks.settle on: the exact
+    integral over the window divided by its length."""
+    from parsph.cli.bed_report import Bed, Frame
+    t = [0.0, 0.1, 0.2, 0.4, 0.5]
+    r = [3.0, 1.0, 2.0, 0.5, 1.5]
+    bed = Bed([Frame(ti, ri * 7.0, 7.0, np.zeros(5), []) for ti, ri in zip(t, r)], settle=0.1)
+    exact = (0.1 * (1.0 + 2.0) / 2 + 0.2 * (2.0 + 0.5) / 2 + 0.1 * (0.5 + 1.5) / 2) / 0.4
+    assert bed.mean_drop() == pytest.approx(exact, rel=1e-14)
+    assert math.isnan(Bed(bed.frames[:1], settle=0.0).mean_drop())
+
+
+def test_check_of_a_bed_at_minimum_fluidisation(tmp_path):
+    """`parsph check` of a bed in the solved gas past Wallis's bound judges its time-averaged pressure drop. A
+    small bed of run/single_bubble.toml without its jet, at rest at U = U_mf (Ergun at theta0): inside, the
+    gas carries the buoyant weight, so the grid's dp'/dx is -theta0 (rho_s - rho_g) |g| (within 0.5%); the
+    grains of the free top (theta below theta0) and next to the floor lean on the walls, so the drop across
+    the whole bed is a few % below the weight (2.3% here, 1 cm tall). check prints the bed's verdict (no
+    pointwise table) and exits 0 within --tol, 1 beyond it with one line naming the drop."""
+    from conftest import ROOT, run_cli
+    from parsph.output import output_files, read_grid
+    from parsph.physics import bed_expansion
+    from parsph.setup import config
+    from parsph.setup.scenes import layer
+    sets = ["scene.height=0.01", "domain.L=0.04", "domain.Ly=0.016", "numerics.Nx=80", "output.t_end=0.02",
+            "output.times=[0.005, 0.01, 0.015, 0.02]", "checks.settle=0.0"]
+    runfile = tmp_path / "bed.toml"
+    runfile.write_text((ROOT / "run" / "single_bubble.toml").read_text().replace(
+        "jet = [0.035, 0.045, 1.0, 0.05] # y0, y1 [m], U_jet [m/s], t_off [s]", ""))
+    cfg = config.load(runfile, sets)
+    ph = layer.phases(cfg)
+    U_mf = bed_expansion.minimum_fluidization_velocity(cfg.theta0, ph)
+    sets += [f"gas.U={U_mf!r}"]
+    code, out, err = run_cli("run", runfile, "--out", tmp_path / "out", "--quiet", *sum((["--set", s] for s in sets), []),
+                             timeout=300)
+    assert code == 0, err
+    share = re.search(r"the gas solve [\d.]+ s \((\d+)% of the loop\)", out)
+    assert share and 0 < int(share.group(1)) <= 100, out   # the loop's steps only: no compiling in it
+    grid = read_grid(output_files(tmp_path / "out")[-1])
+    hx = grid["attrs"]["cell"][0]
+    inside = grid["p"][1:4].mean(axis=1)                    # cells 2-8 mm above the floor, the top at 10 mm
+    assert np.diff(inside).mean() / hx == pytest.approx(-cfg.theta0 * ph.buoyant, rel=5e-3)
+    code, out, err = run_cli("check", tmp_path / "out", "--tol", "0.05")
+    assert code == 0, out + err
+    assert "bed check:" in out and "errors of theta" not in out
+    rows = [line.split() for line in out.splitlines() if line[:10].strip() in ("0.005", "0.01", "0.015", "0.02")]
+    assert len(rows) == 4 and all(0.95 < float(r[1]) < 1.0 for r in rows), rows
+    code, out, err = run_cli("check", tmp_path / "out", "--tol", "0.01")
+    assert code == 1 and err.count("\n") == 1 and "pressure drop" in err, err
+    code, out, err = run_cli("run", runfile, "--out", tmp_path / "late", "--set", "checks.settle=0.02",
+                             *sum((["--set", s] for s in sets[:-2]), []))
+    assert code == 2 and err.count("\n") == 1 and "checks.settle" in err, err
