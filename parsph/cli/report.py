@@ -124,7 +124,7 @@ def cmd_check(args):
             print("parsph check: nothing to judge (no output with particles, and the layer in transit at every "
                   "output)")
         else:
-            print("parsph check: nothing to judge (fewer than two outputs with a grid from checks.settle on)")
+            print("parsph check: nothing to judge (the bed's outputs from checks.settle on span under 1 s)")
         return 0
     if worst is None:
         print("parsph check: nothing to check against")

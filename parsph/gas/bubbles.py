@@ -98,6 +98,12 @@ class Pair:
     def diameter(self):
         return 0.5 * (self.before.diameter + self.after.diameter)
 
+    @property
+    def detached(self):
+        """Clear of the floor on both grids (none of its cells in the first row): rising, not still forming
+        over the floor."""
+        return self.before.cells[0].min() > 0 and self.after.cells[0].min() > 0
+
 
 def match(before, after, dt, shape):
     """Pairs of bubbles of two grids dt [s] apart (``shape`` the grids' (nx, ny)): each bubble of ``after``
