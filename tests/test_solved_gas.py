@@ -492,14 +492,16 @@ def test_plot_grid_draws_each_output_and_animates_them(tmp_path):
     assert not list(tmp_path.glob("*_grid_p_*.png"))
 
 
-def test_a_restart_between_solves_is_bit_for_bit(tmp_path):
+@pytest.mark.parametrize("extra", [["gas.solve_every=3"], ['gas.drag="wen_yu"']])
+def test_a_restart_between_solves_is_bit_for_bit(tmp_path, extra):
     """gas.solve_every = 3 and an output between two solves: a run restarted from it (its /grid/start: the
-    flux held since the last solve, the warm start, the factor's K) ends with the uninterrupted run's bits."""
+    flux held since the last solve, the warm start, the factor's K) ends with the uninterrupted run's bits;
+    likewise a slip-dependent closure solving every step, whose C takes the slip toward the last solve's j."""
     import shutil
     import h5py
     from parsph.output import read_state
     from parsph.simulation.case import run_case
-    sets = ['gas.flow="solved"', "gas.solve_every=3", "domain.L=0.004", "numerics.Nx=20", "domain.Ly=0.0024",
+    sets = ['gas.flow="solved"', *extra, "domain.L=0.004", "numerics.Nx=20", "domain.Ly=0.0024",
             "scene.height=0.0016", "numerics.dt=5e-5", "output.t_end=0.004", "output.times=[0.00205, 0.004]",
             "output.snapshots=true"]
     whole, resumed = tmp_path / "whole", tmp_path / "resumed"
@@ -507,7 +509,7 @@ def test_a_restart_between_solves_is_bit_for_bit(tmp_path):
     resumed.mkdir()
     shutil.copy(whole / "bed_0000.h5", resumed / "bed_0000.h5")
     with h5py.File(resumed / "bed_0000.h5", "r") as f:
-        assert f.attrs["step"] % 3 != 0  # the restart point lies between two solves
+        assert f.attrs["step"] % 3 != 0  # the restart point lies between two solves (with solve_every = 3)
     run_case(MPI.COMM_SELF, layers.load(layers.BED, sets), str(resumed), "bed",
              state=read_state(str(resumed / "bed_0000.h5")))
     with h5py.File(whole / "bed_0001.h5", "r") as a, h5py.File(resumed / "bed_0001.h5", "r") as b:
