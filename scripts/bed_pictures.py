@@ -12,7 +12,7 @@ import h5py
 import matplotlib
 
 from parsph.cli import grid_plot
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -32,7 +32,7 @@ def main():
         t, fn = row[0], row[1]
         with h5py.File(fn, "r") as f:
             p = f["particles"]
-            fluid = p["kind"][()] == FLUID
+            fluid = p["kind"][()] == GRAIN
             x, th = p["position"][()][fluid], p["theta"][()][fluid]
         ax[0, k].scatter(x[:, 1] * 1e3, x[:, 0] * 1e3, c=th, s=0.3, vmin=0.0, vmax=0.8, cmap="viridis_r",
                               rasterized=True)

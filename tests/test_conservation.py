@@ -25,7 +25,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.simulation.solver import Simulation
 
 DX = 2e-4
@@ -76,7 +76,7 @@ t_end = {100 * DT!r}
 energy = false
 """
         self.cfg = config.loads(text)
-        state = {"id": np.arange(n, dtype=np.int64), "kind": np.full(n, FLUID, np.int64), "mass": mass,
+        state = {"id": np.arange(n, dtype=np.int64), "kind": np.full(n, GRAIN, np.int64), "mass": mass,
                  "position": pos, "velocity": vel, "attrs": {"step": 0, "time": 0.0, "dt": DT}}
         self.sim = Simulation(self.cfg, MPI.COMM_SELF, state=state)
         self.ps = self.sim.ps

@@ -21,7 +21,7 @@ from mpi4py import MPI
 from parsph.physics import gas_references
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from conftest import ROOT
 
 BOX = ROOT / "run" / "periodic_box.toml"
@@ -46,7 +46,7 @@ def run(cfg, steps=None):
 
 def fluid(sim, field):
     ps = sim.ps
-    f = ps.kind[:ps.n_own] == FLUID
+    f = ps.kind[:ps.n_own] == GRAIN
     return getattr(ps, field)[:ps.n_own][f]
 
 
@@ -188,7 +188,7 @@ def test_walls_get_neither_gravity_nor_drag():
     sim = Simulation(cfg, MPI.COMM_SELF, native=False)
     sim.take_steps(3)
     ps = sim.ps
-    walls = ps.kind[:ps.n_own] != FLUID
+    walls = ps.kind[:ps.n_own] != GRAIN
     assert walls.sum() > 0
     assert np.all(ps.acc[:ps.n_own][walls] == 0.0)
     assert np.all(ps.acc[:ps.n_own][~walls] != 0.0)

@@ -27,7 +27,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.errors import GuardError
 from parsph.simulation.guards import CHECKS
 from parsph.simulation.solver import Simulation
@@ -52,7 +52,7 @@ WORST = textwrap.dedent("""
     import numpy as np
     from mpi4py import MPI
     from parsph.setup import config
-    from parsph.sph.particles import FLUID
+    from parsph.sph.particles import GRAIN
     from parsph.errors import GuardError
     from parsph.simulation.solver import Simulation
     comm = MPI.COMM_WORLD
@@ -60,7 +60,7 @@ WORST = textwrap.dedent("""
     sim = Simulation(cfg, comm)
     sim.compute_rates()
     ps = sim.ps
-    k = int(np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[0])     # one fluid particle of this rank
+    k = int(np.flatnonzero(ps.kind[:ps.n_own] == GRAIN)[0])     # one fluid particle of this rank
     x0 = ps.pos[k, 0]
     out = []
     for deep_rank in (1, 0):
@@ -109,7 +109,7 @@ def test_theta_range_names_the_furthest_particle():
     sim.compute_rates()
     sim.check()                                    # the undisturbed lattice passes
     ps, th0 = sim.ps, sim.cfg.theta0
-    a, b = np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[[3, 200]]
+    a, b = np.flatnonzero(ps.kind[:ps.n_own] == GRAIN)[[3, 200]]
     ps.theta[a], ps.theta[b] = 1.6 * th0, 1.9 * th0
     with pytest.raises(GuardError) as e:
         sim.check()
@@ -140,7 +140,7 @@ def test_check_report_by_hand(paper_cfg):
     lim = limits_of(cfg, 4.0)
     assert lim.ke_bound == pytest.approx(0.5 * 4.0 * cfg.V_w ** 2, rel=1e-15)
     assert lim.theta_tol == pytest.approx(cfg.get("checks.theta_change") * cfg.theta0, rel=1e-15)
-    kind = np.array([FLUID, FLUID, FLUID, WALL, FLUID])
+    kind = np.array([GRAIN, GRAIN, GRAIN, WALL, GRAIN])
     pos = np.array([[1e-3, 0.0], [2e-3, 1e-3], [5e-3, 2e-3], [-5e-4, 0.0], [7e-3, 3e-3]])
     vel = np.array([[0.0, 1.0], [0.3, 0.4], [0.0, -0.5], [0.0, 9.0], [0.0, 0.0]])
     acc = np.zeros((5, 2))
@@ -264,7 +264,7 @@ def test_read_measures_the_checks_criteria_on_particles_written_here(paper_cfg):
     from parsph.simulation.guards import read
     from parsph.sph.particles import WALL
     cfg = paper_cfg()
-    fields = {"kind": np.array([FLUID, FLUID, FLUID, WALL, WALL]),
+    fields = {"kind": np.array([GRAIN, GRAIN, GRAIN, WALL, WALL]),
               "position": np.array([[-1e-4, 0.0], [L + 3e-4, 1e-3], [5e-3, 2e-3], [-5e-4, 0.0], [L + 1e-3, 0.0]]),
               "velocity": np.array([[0.0, 1.0], [0.3, 0.4], [0.0, -0.5], [0.0, 9.0], [9.0, 0.0]]),
               "theta": np.array([0.35, 0.42, 0.28, 0.9, 0.0]), "mass": np.array([2.0, 1.0, 1.0, 50.0, 50.0])}

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.simulation.solver import Simulation
 
 PAPER_TOML = Path(__file__).resolve().parent.parent / "run" / "couette_paper.toml"
@@ -145,7 +145,7 @@ def paper_t0():
     sim.compute_rates()
     ps = sim.ps
     n = ps.n_own
-    f = ps.kind[:n] == FLUID
+    f = ps.kind[:n] == GRAIN
     col = np.rint(ps.pos[:n, 0][f] / cfg.dx - 0.5).astype(int)
     return cfg, col, ps.theta[:n][f].copy(), ps.acc[:n][f].copy(), sim
 
@@ -157,7 +157,7 @@ def test_wall_density_is_the_lattice_sum(paper_t0):
     assert sim.rho_wall == pytest.approx(cfg.rho_s * theta_lat, rel=1e-14)
     ps = sim.ps
     n = ps.n_own
-    walls = ps.kind[:n] != FLUID
+    walls = ps.kind[:n] != GRAIN
     assert walls.sum() == 2 * cfg.layers * cfg.Ny
     np.testing.assert_allclose(ps.theta[:n][walls], theta_lat, rtol=1e-14)
     # the wall holds the fluid's summed lattice density, which is not theta0: the lattice sum of the

@@ -21,7 +21,7 @@ from parsph.physics import closures, limits
 from parsph.setup import config
 from parsph.setup.runfile import RunFile
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 from conftest import ROOT
 
@@ -203,7 +203,7 @@ def channel_velocity_jacobian(dim, nx, rows, kernel, h_over_dx, beta_max):
     sim = Simulation(cfg, MPI.COMM_SELF)
     sim.compute_rates()
     ps, n = sim.ps, sim.ps.n_own
-    fluid = np.flatnonzero(ps.kind[:n] == FLUID)
+    fluid = np.flatnonzero(ps.kind[:n] == GRAIN)
     a0, v0 = ps.acc[:n].copy(), ps.vel[:n].copy()
     dv = 1e-3  # the viscous term is linear in v: one-sided differences are exact to rounding
     jac = np.zeros((len(fluid), len(fluid)))

@@ -23,7 +23,7 @@ import pytest
 from mpi4py import MPI
 
 from parsph.setup import config
-from parsph.sph.particles import FLUID, MOVING_WALL, WALL
+from parsph.sph.particles import GRAIN, MOVING_WALL, WALL
 from parsph.errors import DecompositionError
 from parsph.parallel.slabs import min_length
 from parsph.sph.cells import CELLS_PER_CUTOFF
@@ -110,7 +110,7 @@ def _compare(cfg, sim, par, prof):
         same_shape = par[k].shape == ref[k].shape
         verdict[k] = same_shape and np.array_equal(par[k], ref[k])
         verdict[k + "_maxdiff"] = float(np.max(np.abs(par[k] - ref[k]))) if same_shape else math.inf
-    verdict["moved"] = float(np.max(np.abs(ref["vel"][ref["kind"] == FLUID])))
+    verdict["moved"] = float(np.max(np.abs(ref["vel"][ref["kind"] == GRAIN])))
     verdict["prof_x"] = np.array_equal(prof["x"], prof1["x"])
     verdict["prof_count"] = np.array_equal(prof["count"], prof1["count"])
     vy, vy1 = prof["vy"], prof1["vy"]
@@ -244,7 +244,7 @@ def test_conservation_through_migration():
     assert len(np.unique(ref_ids[:, 0])) == N0
 
     failures = []
-    moves = {FLUID: 0, WALL: 0, MOVING_WALL: 0}
+    moves = {GRAIN: 0, WALL: 0, MOVING_WALL: 0}
     for _ in range(cfg.nsteps):
         rebuilds = sim.rebuilds
         sim.compute_rates()
@@ -304,7 +304,7 @@ def test_kinds_counts_conserved():
     sim = Simulation(cfg, comm)
     sim.run(output=None)
     k = sim.ps.kind[:sim.ps.n_own]
-    counts = comm.allreduce(np.array([(k == FLUID).sum(), (k == WALL).sum(), (k == MOVING_WALL).sum()]))
+    counts = comm.allreduce(np.array([(k == GRAIN).sum(), (k == WALL).sum(), (k == MOVING_WALL).sum()]))
     assert counts.tolist() == [rows * 50, rows * 3, rows * 3]
 
 

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 from mpi_helpers import launch  # noqa: E402
 from mpi_helpers.scene_ranks import CASES, differences, idle_wait, load, run_scene, state  # noqa: E402
@@ -89,7 +89,7 @@ def test_scene_bit_for_bit_on_several_ranks(scene):
     def reference():
         one, _ = run_scene(cfg, MPI.COMM_SELF, amplitude)
         ref = state(one)
-        fluid = ref["kind"] == FLUID
+        fluid = ref["kind"] == GRAIN
         return {"diff": differences(par, ref), "clock": [one.step, one.t, one.dt],
                 "n": [len(par["gid"]), len(ref["gid"])], "moved": float(np.abs(ref["vel"][fluid]).max())}
     v = on_rank0(comm, reference)

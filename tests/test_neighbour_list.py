@@ -28,7 +28,7 @@ from mpi4py import MPI
 from parsph.setup import config
 from parsph.setup.runfile import RunFile
 from parsph.sph.cells import CELLS_PER_CUTOFF, CellBox, CellOrder, patch_spread, build_pairs
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.simulation.solver import Simulation
 
 from conftest import ROOT
@@ -40,7 +40,7 @@ def brute_pairs(sim):
     n = ps.n_own
     pos = ps.pos[:n]
     gid = ps.gid[:n]
-    fluid = ps.kind[:n] == FLUID
+    fluid = ps.kind[:n] == GRAIN
     d = pos[:, None, :] - pos[None, :, :]
     periods = [0.0 if cfg.scene.walls else cfg.L, cfg.Ly, cfg.Lz if cfg.dim == 3 else 0.0]
     for axis in range(cfg.dim):
@@ -62,7 +62,7 @@ def listed_pairs(sim):
     pi, pj = pi[near], pj[near]
     out = set()
     for a, b in ((pi, pj), (pj, pi)):
-        mine = (a < ps.n_own) & (ps.kind[a] == FLUID)
+        mine = (a < ps.n_own) & (ps.kind[a] == GRAIN)
         out |= set(zip(ps.gid[a[mine]].tolist(), ps.gid[b[mine]].tolist()))
     return out
 
@@ -144,7 +144,7 @@ def test_runaway_particle_does_not_grow_the_grid():
     sim.compute_rates()
     cells = int(np.prod(sim.neighbours.size))
     ps = sim.ps
-    k = int(np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[0])
+    k = int(np.flatnonzero(ps.kind[:ps.n_own] == GRAIN)[0])
     ps.pos[k, 0] = 100.0
     sim.force_rebuild = True
     sim.compute_rates()
@@ -247,7 +247,7 @@ def fluid_density_brute_force(sim):
     ps, cfg = sim.ps, sim.cfg
     n = ps.n_own
     pos, mass = ps.pos[:n], ps.mass[:n]
-    fluid = np.flatnonzero(ps.kind[:n] == FLUID)
+    fluid = np.flatnonzero(ps.kind[:n] == GRAIN)
     r2 = np.zeros((len(fluid), n))
     for axis, period in ((0, 0.0), (1, cfg.Ly), (2, cfg.Lz)):
         if axis < cfg.dim:
@@ -291,5 +291,5 @@ def test_plate_sliding_past_resting_fluid_against_a_fresh_sum_every_step(dim):
         assert err <= 1e-12, f"step {sim.step}: density off a fresh sum by {err:.3g} (a missed pair)"
         sim.integrate(sim.dt)
     assert sim.rebuilds >= 2  # the plate slid 0.9 dx: rebuilt at 0.5 dx
-    fluid = sim.ps.kind[:sim.ps.n_own] == FLUID
+    fluid = sim.ps.kind[:sim.ps.n_own] == GRAIN
     assert np.abs(sim.ps.vel[:sim.ps.n_own][fluid]).max() < 0.01 * cfg.V_w  # the fluid stayed at rest

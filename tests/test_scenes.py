@@ -9,7 +9,7 @@ from mpi4py import MPI
 
 from parsph.setup import config
 from parsph.physics.analytic import poiseuille_velocity, settling_equilibrium
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.simulation.solver import Simulation
 
 BASE = """
@@ -256,5 +256,5 @@ def test_settling_column_reaches_its_balance(form):
     # 0.5 dx to 0.29 dx (0.64 h from the first wall row, where the cubic spline's repulsion weakens)
     # and, once settled, let it slide into the wall (at t = 0.59 s).
     n = sim.ps.n_own
-    fluid_x = sim.ps.pos[:n, 0][sim.ps.kind[:n] == FLUID]
+    fluid_x = sim.ps.pos[:n, 0][sim.ps.kind[:n] == GRAIN]
     assert fluid_x.min() > 0.4 * cfg.dx, fluid_x.min() / cfg.dx

@@ -27,7 +27,7 @@ from parsph.physics import drag
 from parsph.physics.drag import STOKES
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.studies import layers
 
 
@@ -164,7 +164,7 @@ def _particles(n, Lx, Ly, seed=2):
     pos = np.column_stack([rng.uniform(-0.05 * Lx, 1.05 * Lx, n), rng.uniform(-0.3 * Ly, 1.3 * Ly, n)])
     vel = rng.normal(size=(n, 2))
     mass = rng.uniform(0.5, 1.5, n) * 1e-3
-    kind = np.where(rng.random(n) < 0.9, FLUID, 1).astype(np.int64)
+    kind = np.where(rng.random(n) < 0.9, GRAIN, 1).astype(np.int64)
     return pos, vel, mass, kind
 
 
@@ -179,7 +179,7 @@ def test_deposit_conserves_volume_and_momentum_in_any_order():
     nx, ny, Lx, Ly, rho_s = 7, 5, 0.7, 0.4, 2000.0
     pos, vel, mass, kind = _particles(400, Lx, Ly)
     sums = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)
-    fluid = kind == FLUID
+    fluid = kind == GRAIN
     area = Lx / nx * Ly / ny
     rounding = 4 * fluid.sum() * 0.5 / deposit.SCALE * area  # each of the 4 terms a particle adds rounds once
     assert abs(sums[0].sum() / deposit.SCALE * area - (mass[fluid] / rho_s).sum()) <= rounding
@@ -207,7 +207,7 @@ def test_interpolation_is_the_deposits_transpose():
     at = np.zeros((len(mass), 1))
     deposit.interpolate(pos, kind, len(mass), f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, at)
     theta = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)[0] / deposit.SCALE
-    fluid = kind == FLUID
+    fluid = kind == GRAIN
     lhs = (mass[fluid] / rho_s * at[fluid, 0]).sum()
     rhs = (f[:, :, 0] * theta).sum() * (Lx / nx) * (Ly / ny)
     assert lhs == pytest.approx(rhs, rel=1e-10)

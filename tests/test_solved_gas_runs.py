@@ -11,7 +11,7 @@ from mpi4py import MPI
 from parsph.physics import drag
 from parsph.setup.scenes import layer
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.sph.profiles import mass_quantiles
 from parsph.studies import layers
 
@@ -20,7 +20,7 @@ from parsph.studies import layers
 def quantile_runs(path, times, extra=()):
     def measure(sim):
         ps = sim.ps
-        f = ps.kind[:ps.n_own] == FLUID
+        f = ps.kind[:ps.n_own] == GRAIN
         return {"q": mass_quantiles(ps.pos[:ps.n_own, 0][f], ps.mass[:ps.n_own][f]),
                 "finite": bool(np.isfinite(ps.vel[:ps.n_own]).all())}
     out = {}
@@ -81,7 +81,7 @@ def test_fed_periodic_column_settles_to_U_less_hindered_settling(flow, U):
     sim = Simulation(rf, MPI.COMM_SELF)
     sim.run()
     ps = sim.ps
-    f = ps.kind[:ps.n_own] == FLUID
+    f = ps.kind[:ps.n_own] == GRAIN
     v = ps.vel[:ps.n_own][f, 0].mean()
     u_t = drag.terminal_velocity(rf.rho_s, rf.gas.rho, 9.81, rf.gas.d, rf.gas.mu)
     want = U - u_t * (1 - rf.theta0) ** 4.65

@@ -11,7 +11,7 @@ from parsph.physics.closures import modulus
 from parsph.physics.kernels import kernel_w_f
 from parsph.simulation.solver import Simulation
 from parsph.sph import walls
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.sph.pass_data import OFF, ON
 from parsph.studies import layers
 
@@ -38,7 +38,7 @@ def test_mirror_theta_has_the_extrapolated_pressure(consistent, theta, rise):
 def test_reflect_puts_grains_on_the_plates():
     pos = np.array([[-1e-5, 0.0], [0.5, 0.0], [1.2, 0.1], [-0.3, 0.0]])
     vel = np.array([[-1.0, 0.5], [-1.0, 0.0], [2.0, 1.0], [-1.0, 0.0]])
-    kind = np.array([FLUID, FLUID, FLUID, 1])
+    kind = np.array([GRAIN, GRAIN, GRAIN, 1])
     assert walls.reflect(pos, vel, kind, 4, 1.0) == 2
     np.testing.assert_array_equal(pos, [[0.0, 0.0], [0.5, 0.0], [1.0, 0.1], [-0.3, 0.0]])
     np.testing.assert_array_equal(vel, [[0.0, 0.5], [-1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
@@ -53,7 +53,7 @@ def test_density_next_to_the_floor_is_the_fluid_sum_renormalised():
     sim = Simulation(cfg, MPI.COMM_SELF)
     ps = sim.ps
     rng = np.random.default_rng(3)
-    fluid = ps.kind[:ps.n_own] == FLUID
+    fluid = ps.kind[:ps.n_own] == GRAIN
     ps.pos[:ps.n_own][fluid] += rng.uniform(-0.2, 0.2, (fluid.sum(), 2)) * cfg.dx
     ps.pos[:ps.n_own][fluid, 0] = np.maximum(ps.pos[:ps.n_own][fluid, 0], 0.05 * cfg.dx)
     sim.compute_rates()
@@ -63,11 +63,11 @@ def test_density_next_to_the_floor_is_the_fluid_sum_renormalised():
     norm, inv_h = kern.norm(cfg.h, cfg.dim), 1.0 / cfg.h
     V_w = cfg.mass / (cfg.rho_s * cfg.theta0)
     checked = 0
-    for i in np.flatnonzero(kind[:n_own] == FLUID):  # (the build reordered the particles)
+    for i in np.flatnonzero(kind[:n_own] == GRAIN):  # (the build reordered the particles)
         r = np.linalg.norm(pos - pos[i], axis=1)
         W = np.array([kernel_w_f(kern.kid, x, inv_h, norm)[0] for x in r])
-        S = np.sum(np.where(kind == FLUID, mass * W, 0.0))
-        phi = V_w * np.sum(np.where(kind != FLUID, W, 0.0))
+        S = np.sum(np.where(kind == GRAIN, mass * W, 0.0))
+        phi = V_w * np.sum(np.where(kind != GRAIN, W, 0.0))
         assert ps.theta[i] == pytest.approx(S / (cfg.rho_s * (1.0 - phi)), rel=1e-12)
         checked += phi > 0.1
     assert checked >= 6  # the first row's particles saw the floor

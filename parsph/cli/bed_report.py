@@ -68,7 +68,7 @@ def measure(path, cfg):
     import h5py
     from parsph.gas import bubbles
     from parsph.output import output_files
-    from parsph.sph.particles import FLUID
+    from parsph.sph.particles import GRAIN
     from parsph.sph.profiles import mass_quantiles
     g = abs(cfg.g[0])
     threshold = cfg.get("checks.bubble_theta")
@@ -84,7 +84,7 @@ def measure(path, cfg):
             theta, p, u_gx = gr["theta"][()], gr["p"][()], gr["u_g"][()][..., 0]
             hx, hy = (float(c) for c in gr.attrs["cell"])
             kind = f["particles/kind"][()]
-            fluid = kind == FLUID
+            fluid = kind == GRAIN
             x = f["particles/position"][()][fluid, 0]
             m = f["particles/mass"][()][fluid]
         weight = float(m.sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly

@@ -54,7 +54,7 @@ def _snapshots(path):
     """(time, fluid x, fluid mass) of every output with particles, by time."""
     import h5py
     from parsph.output import output_files
-    from parsph.sph.particles import FLUID
+    from parsph.sph.particles import GRAIN
     out = []
     for fn in output_files(path):
         with h5py.File(fn, "r") as f:
@@ -62,7 +62,7 @@ def _snapshots(path):
                 continue
             g = f["particles"]
             kind = g["kind"][()]
-            fluid = kind == FLUID
+            fluid = kind == GRAIN
             out.append((float(f.attrs["time"]), g["position"][()][fluid, 0], g["mass"][()][fluid]))
     out.sort(key=lambda r: r[0])
     return out

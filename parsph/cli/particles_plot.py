@@ -16,10 +16,10 @@ import re
 import numpy as np
 
 from parsph.errors import UsageError
+from parsph.sph.particles import GRAIN, MOVING_WALL as MOVING  # particle kinds (docs/output.md)
 
 FIELDS = {"vy": ("velocity", 1, "v_y [m/s]"), "vx": ("velocity", 0, "v_x [m/s]"),
           "theta": ("theta", None, "theta (volume fraction) [1]")}
-FLUID, MOVING = 0, 2  # particle kinds (docs/output.md)
 LAYER_SCENES = ("sedimentation", "fluidized_bed")  # a layer on the floor x = 0 under a lid at x = L
 WALL_COLOUR = "tan"   # not in the colour map, and not a grey that anti-aliased text makes
 
@@ -112,7 +112,7 @@ def layer_reference_heights(snaps):
             ref = FRACTION_95 * layer.layer_height(cfg)
         else:
             ref = float(layer.end_state(cfg).quantiles([FRACTION_95])[0])
-        fluid = s["kind"] == FLUID
+        fluid = s["kind"] == GRAIN
         sph = float(mass_quantiles(s["position"][fluid, 0], s["mass"][fluid], [FRACTION_95])[0]) \
             if fluid.any() else None
         out[t] = (ref, sph)
@@ -166,7 +166,7 @@ def figure(snap, field, limits, heights=None):
         spacing = float(np.median(gaps)) if gaps.size else spacing
     side = 72.0 * bbox.width * spacing / (across[1] - across[0])
     s = max(0.05, (0.8 * side) ** 2)
-    fluid = k == FLUID
+    fluid = k == GRAIN
     sc = ax.scatter(hx[fluid] * 1e3, vx[fluid] * 1e3, c=values[fluid], s=s, marker="o", linewidths=0,
                     cmap="viridis", vmin=limits[0], vmax=limits[1])
     if (~fluid).any():
@@ -229,7 +229,7 @@ def plot_particles(path, field="vy", times=None):
     from parsph.output import read_snapshot
     chosen = snapshot_files(path, times)
     snaps = [(fn, read_snapshot(fn)) for _, fn in chosen]
-    lo, hi = colour_limits(np.concatenate([field_values(s, field)[s["kind"] == FLUID] for _, s in snaps]))
+    lo, hi = colour_limits(np.concatenate([field_values(s, field)[s["kind"] == GRAIN] for _, s in snaps]))
     heights = layer_reference_heights([snap for _, snap in snaps])
     pngs = []
     for fn, snap in snaps:

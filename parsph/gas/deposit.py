@@ -20,7 +20,7 @@ from numba import njit
 
 SCALE = 2.0 ** 40
 RATE_SCALE = 2.0 ** 36  # the resistance, relative to a reference (a rate 2^27 times the reference's fits)
-FLUID = 0  # parsph.sph.particles.FLUID (the gas layer imports nothing of sph)
+GRAIN = 0  # parsph.sph.particles.GRAIN (the gas layer imports nothing of sph)
 
 
 @njit(cache=True, inline="always")
@@ -58,7 +58,7 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, o
     inv = 1.0 / (rho_s * hx * hy)
     resist = len(rate) > 0
     for k in range(n_own):
-        if kind[k] != FLUID:
+        if kind[k] != GRAIN:
             continue
         i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls)
         j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, False)
@@ -87,7 +87,7 @@ def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, out):
     for k in range(n_own):
         for c in range(nc):
             out[k, c] = 0.0
-        if kind[k] != FLUID:
+        if kind[k] != GRAIN:
             continue
         i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls)
         j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, False)

@@ -191,7 +191,7 @@ def _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit):
     maxima[0] = v
     maxima[1] = th
     maxima[2] = a
-    maxima[3] = drag_maximum(parts.drag, parts.kind, parts.n_own) if drag_limit else 0.0
+    maxima[3] = drag_maximum(parts.drag_coef, parts.kind, parts.n_own) if drag_limit else 0.0
     if allreduce(plan.h, OP_MAX, maxima, maxima_all) != 0:
         return -2.0
     vmax, theta_max, amax = maxima_all[0], min(maxima_all[1], 0.999), maxima_all[2]
@@ -263,7 +263,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     fastest = scratch[14 + N_REPORT:14 + N_REPORT + N_FASTEST]
     sums = scratch[14 + N_REPORT + N_FASTEST:16 + N_REPORT + N_FASTEST]
     sums_all = scratch[16 + N_REPORT + N_FASTEST:18 + N_REPORT + N_FASTEST]
-    pos, vel, acc, kind, drag = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag
+    pos, vel, acc, kind, drag = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag_coef
     n_own = parts.n_own
     ctl = control[0]
     if ctl.eval_first:  # the rates of the state as it is (a list was just built)

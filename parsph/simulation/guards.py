@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from parsph.errors import GuardError
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
           3: "volume fraction out of range", 4: "kinetic energy above what the walls can inject",
@@ -84,7 +84,7 @@ def check_report(pos, vel, acc, theta, jump, kind, mass, n, lim, report, fastest
         for d in range(dim):
             v2 += vel[i, d] * vel[i, d]
             finite = finite and math.isfinite(pos[i, d]) and math.isfinite(vel[i, d]) and math.isfinite(acc[i, d])
-        fluid = kind[i] == FLUID
+        fluid = kind[i] == GRAIN
         if fluid:
             ke += mass[i] * v2
             fluid_mass += mass[i]
@@ -151,7 +151,7 @@ def read(fields, cfg, theta_ref=None, acc=None):
     """The Reading of ``fields`` (:meth:`Simulation.particles`); ``theta_ref(x)``: the theta each fluid
     particle is measured against (default theta_0); ``acc``: the owned particles' accelerations."""
     kind, pos, vel, theta = fields["kind"], fields["position"], fields["velocity"], fields["theta"]
-    fl = kind == FLUID
+    fl = kind == GRAIN
     ref = cfg.theta0 if theta_ref is None else theta_ref(np.nan_to_num(pos[:, 0]))
     with np.errstate(all="ignore"):
         finite = np.isfinite(pos).all(axis=1) & np.isfinite(vel).all(axis=1)

@@ -29,7 +29,7 @@ class Integrator:
     def drag_field(self, ps):
         """The particles' drag coefficients as the integrators take them (an empty array without a gas; read
         anew each step, as the field is reallocated when the particles grow)."""
-        return ps.drag if self.drag else self.no_state
+        return ps.drag_coef if self.drag else self.no_state
 
     def first(self, ps, dt):
         """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles.

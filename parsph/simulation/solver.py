@@ -31,7 +31,7 @@ from parsph.parallel.slab_ring import SlabRing
 from parsph.physics import limits
 from parsph.physics.kernels import get_kernel
 from parsph.sph.cells import grid_for
-from parsph.sph.particles import FLUID, drag_maximum, state_maxima
+from parsph.sph.particles import GRAIN, drag_maximum, state_maxima
 from parsph.sph.rates import Rates
 from . import block, start
 from .compiled_steps import CompiledSteps, native_route
@@ -68,7 +68,7 @@ class Simulation:
         self.integrator = Integrator(cfg, ps)
         self.rho_wall = start.hold_wall_density(cfg, self.kernel, ps)
         if cfg.gas is not None:
-            ps.add_field("drag")
+            ps.add_field("drag_coef")
             ps.add_field("drag_rate", vector=False)
         self.gas = GasStage(cfg, comm, ps) if cfg.gas is not None and cfg.gas.solved else None
         if self.gas is not None and state is not None and "path" in state:
@@ -82,7 +82,7 @@ class Simulation:
         self.neighbours = self.keeper.neighbours
         self.rates = Rates(*start.pass_groups(cfg, self.kernel, start.the_one_mass(self.collect, ps)))
         self.n_total = self.collect.total(ps.n_own)
-        fluid = ps.kind[:ps.n_own] == FLUID
+        fluid = ps.kind[:ps.n_own] == GRAIN
         self.limits = limits_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
         self.frames = Frames(cfg, self.grid, self.collect)
         self.blocks = CompiledSteps(cfg, ps, self.ring, self.neighbours, self.rates, self.integrator, self.limits,
@@ -176,7 +176,7 @@ class Simulation:
     def stable_dt(self):
         """The largest stable step for the current state (global minimum over ranks)."""
         ps, cfg = self.ps, self.cfg
-        cmax = drag_maximum(ps.drag, ps.kind, ps.n_own) if self.integrator.explicit_drag else 0.0
+        cmax = drag_maximum(ps.drag_coef, ps.kind, ps.n_own) if self.integrator.explicit_drag else 0.0
         local = np.array([*state_maxima(ps.vel, ps.acc, ps.theta, ps.kind, ps.n_own, cfg.theta0), cmax])
         vmax, theta_max, amax, cmax = self.collect.max(local)
         theta_max = min(theta_max, 0.999)

@@ -6,7 +6,7 @@ from parsph.output import read_particles
 from parsph.physics.kernels import kernel_w_f
 from parsph.physics.lattice_sums import lattice_sum
 from parsph.sph import pass_data
-from parsph.sph.particles import FLUID, Particles
+from parsph.sph.particles import GRAIN, Particles
 
 
 def slab_particles(cfg, ring, comm, state):
@@ -37,7 +37,7 @@ def perturb(cfg, kind, pos):
     (a seed that varies across the bed: its columns alternately lifted and lowered), in place."""
     A = cfg.get("perturbation.amplitude")
     if A:
-        fluid = kind == FLUID
+        fluid = kind == GRAIN
         dx = A * np.sin(2.0 * np.pi * pos[fluid, 0] / cfg.get("perturbation.wavelength"))
         lam_y = cfg.get("perturbation.wavelength_y")
         if lam_y is not None:
@@ -53,7 +53,7 @@ def hold_wall_density(cfg, kernel, ps):
     ps.rho[:ps.n] = rho_wall
     wall_theta = cfg.scene.wall_theta
     if wall_theta is not None:
-        wall = ps.kind[:ps.n] != FLUID
+        wall = ps.kind[:ps.n] != GRAIN
         ps.rho[:ps.n][wall] *= wall_theta(cfg, ps.pos[:ps.n][wall, 0]) / cfg.theta0
     return rho_wall
 

@@ -5,7 +5,7 @@ column and the solved gas. Knows nothing of pairs or of MPI.
 from numba import njit
 
 from parsph.physics.drag import GIDASPOW, STOKES, WEN_YU, rate
-from .particles import FLUID
+from .particles import GRAIN
 from .pass_data import COLUMN, SOLVED, TOWARD_FLUX  # the gas's flows (GasConstants.flow)
 
 
@@ -19,7 +19,7 @@ def finish_acc(acc, kind, g, three_d, n_own, drag_on, vel, theta, rho_s, gas, dr
         drag_rates(n_own, vel, theta, rho_s, gas.model, gas.rho, gas.mu, gas.d, gas.flow, gas.axis, gas.sign,
                    gas.U, gas.u, flux, drag_rate, three_d)
     for k in range(n_own):
-        if kind[k] == FLUID:
+        if kind[k] == GRAIN:
             acc[k, 0] += g[0]
             acc[k, 1] += g[1]
             if len(three_d):

@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit, uintp
 
-from .particles import FLUID
+from .particles import GRAIN
 
 CELLS_PER_CUTOFF = 2  # M: cells of side r_c / 2; patches of 5^d cells span 2.5 r_c
 
@@ -257,7 +257,7 @@ def build_list(ref, gid, kind, n, n_own, coords, local, cutoff, cell, order, sta
     ncells = local.size[0] * local.size[1] * local.size[2]
     sort_by_cell(cell, gid, n, ncells, order, start)
     for i in range(n):
-        need[i] = i < n_own and kind[i] == FLUID
+        need[i] = i < n_own and kind[i] == GRAIN
     return build_pairs(ref, need, CellOrder(cell, order, start, n), local, cutoff, pstart, pi, pj)
 
 

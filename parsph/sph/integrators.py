@@ -33,7 +33,7 @@ import math
 
 from numba import njit, prange, uintp
 
-from .particles import FLUID
+from .particles import GRAIN
 
 INTEGRATORS = ("paper", "midpoint")
 
@@ -44,7 +44,7 @@ def _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit, drag, implicit
 
     (One loop over the components with an integer flag: a tuple of the old position, a further call
     or a chain of ``and`` made the serial loop 3 to 10 times slower than the prange one.)"""
-    fluid = kind[i] == FLUID
+    fluid = kind[i] == GRAIN
     moved = 0.0
     ok = 1
     for d in range(pos.shape[1]):
@@ -69,7 +69,7 @@ def _paper_one(pos, vel, acc, kind, i, dt, half_dt2, jump, limit, drag, implicit
 @njit(cache=True, inline="always")
 def _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit):
     """Save (r^n, v^n) of particle i and move it to the midpoint state."""
-    fluid = kind[i] == FLUID
+    fluid = kind[i] == GRAIN
     moved = 0.0
     ok = 1
     for d in range(pos.shape[1]):
@@ -94,7 +94,7 @@ def _predict_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, impl
 @njit(cache=True, inline="always")
 def _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit):
     """r^{n+1} = r^n + dt v*, v^{n+1} = v^n + dt R(r*, v*) for particle i (its jump from r^n)."""
-    fluid = kind[i] == FLUID
+    fluid = kind[i] == GRAIN
     moved = 0.0
     ok = 1
     for d in range(pos.shape[1]):
@@ -145,7 +145,7 @@ def _paper_2d(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit):
     half_dt2 = 0.5 * dt * dt
     bad = 0
     for k in range(uintp(n_own)):
-        fluid = kind[k] == FLUID
+        fluid = kind[k] == GRAIN
         x0 = pos[k, 0]
         y0 = pos[k, 1]
         vx = vel[k, 0]

@@ -33,7 +33,7 @@ from numba import njit, prange, uintp
 from parsph.physics.closures import half_modulus, modulus_unchecked
 from .body_force import drag_plain, drag_rates, finish_acc
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
-from .particles import FLUID
+from .particles import GRAIN
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
 DRAG_CHUNK = 512  # particles per parallel chunk of the drag's rates (threaded momentum pass)
@@ -56,7 +56,7 @@ def pressure_factor(th, rho_i, G_a, G_b, consistent):
 @njit(cache=True, inline="always")
 def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel, theta, fields):
     """rho, theta and the pair loops' row of particle k."""
-    if k < owned_stop and kind[k] == FLUID:
+    if k < owned_stop and kind[k] == GRAIN:
         rho[k] = rho_sum[k]
     r = rho[k]
     th = r / rho_s
@@ -101,7 +101,7 @@ def particle_factors_serial(lst, parts, c, sw, start, stop):
     dim = vel.shape[1]
     own = uintp(owned_stop)
     for k in range(uintp(start), uintp(max(start, stop))):
-        if k < own and kind[k] == FLUID:
+        if k < own and kind[k] == GRAIN:
             rho[k] = rho_sum[k]
         r = rho[k]
         th = r / rho_s
@@ -145,7 +145,7 @@ def momentum_serial(lst, parts, c, sw):
             continue
         i = uintp(order[a])
         need_i = need[i]
-        fluid_i = kind[i] == FLUID
+        fluid_i = kind[i] == GRAIN
         xi = pos[i, 0]
         yi = pos[i, 1]
         zi = pos[i, 2] if len(three_d) else 0.0
@@ -183,7 +183,7 @@ def momentum_serial(lst, parts, c, sw):
                 s = 0.0
                 if len(viscosity):
                     mu = viscosity_coefficient(th_i, th_i, th_j, k_visc, symmetric_mu)
-                    if len(walls) and kind[j] != FLUID:
+                    if len(walls) and kind[j] != GRAIN:
                         mu *= wall_factor(xi, pos[j, 0], L, beta_max)
                     s = mu * V
                 m = m_all if len(uniform_mass) else mass[j]
@@ -207,7 +207,7 @@ def momentum_serial(lst, parts, c, sw):
             acc[i, 1] = ay
             if len(three_d):
                 acc[i, 2] = az
-    finish_acc(acc, kind, g, three_d, n_own, drag_on, parts.vel, parts.theta, rho_s, c.gas, parts.drag,
+    finish_acc(acc, kind, g, three_d, n_own, drag_on, parts.vel, parts.theta, rho_s, c.gas, parts.drag_coef,
                 parts.drag_rate, parts.flux)
 
 
@@ -267,7 +267,7 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
                 if len(viscosity):
                     mu = viscosity_coefficient(fields[k, THETA], fields[i, THETA], fields[j, THETA], k_visc,
                                                symmetric_mu)
-                    if len(walls) and kind[o] != FLUID:
+                    if len(walls) and kind[o] != GRAIN:
                         mu *= wall_factor(pos[k, 0], pos[o, 0], L, beta_max)
                     s = mu * V
                 m = mass[o]
@@ -281,7 +281,7 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
                     ay += m * (P * ry + s * vy)
                     if len(three_d):
                         az += m * (P * rz + s * vz)
-        if kind[k] != FLUID:  # walls: zero
+        if kind[k] != GRAIN:  # walls: zero
             ax = 0.0
             ay = 0.0
             az = 0.0
@@ -294,7 +294,7 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
         acc[k, 1] = ay
         if len(three_d):
             acc[k, 2] = az
-        if len(drag_on) and kind[k] == FLUID:
+        if len(drag_on) and kind[k] == GRAIN:
             drag_plain(k, vel, 1.0 - theta[k], flow, axis, sign, U, u, flux, acc, drag, drag_rate[k], three_d)
 
 
@@ -307,4 +307,4 @@ def momentum_threaded(lst, parts, c, sw, gather):
                        c.g, sw.pressure, sw.viscosity, sw.symmetric_mu, sw.walls, sw.consistent, sw.three_d,
                        parts.acc, gather.Pp, gather.Vp, gather.offset, gather.entry, sw.drag, parts.vel,
                        parts.theta, c.gas.model, c.gas.rho, c.gas.mu, c.gas.d, c.gas.flow, c.gas.axis, c.gas.sign,
-                       c.gas.U, c.gas.u, parts.flux, parts.drag, parts.drag_rate)
+                       c.gas.U, c.gas.u, parts.flux, parts.drag_coef, parts.drag_rate)

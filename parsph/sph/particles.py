@@ -13,12 +13,12 @@ field added with :meth:`Particles.add_field` (the midpoint integrator's
 saved state, say) migrates without further code.
 
 Fields:
-    gid, kind, mass      identity, FLUID/WALL/MOVING_WALL, mass [kg/m in 2-D]
+    gid, kind, mass      identity, GRAIN/WALL/MOVING_WALL, mass [kg/m in 2-D]
     pos, vel, acc        position (not wrapped between rebuilds), velocity, acceleration
     rho, theta           summation density Eq. (3), volume fraction
     disp                 displacement since the last rebuild (the list's validity test)
     jump                 length of the last step's displacement (run-time check 5)
-    drag                 with a gas: the drag coefficient per component (pass_data.ParticleArrays.drag)
+    drag_coef            with a gas: the drag coefficient C per component (pass_data.ParticleArrays.drag_coef)
     drag_rate            with a gas: the closure's K per particle, the drag loops' scratch (ParticleArrays.drag_rate)
     flux                 the solved gas: the mixture's flux j at the particle, from the grid (ParticleArrays.flux)
 """
@@ -27,9 +27,11 @@ import math
 import numpy as np
 from numba import njit
 
-FLUID, WALL, MOVING_WALL = 0, 1, 2
+# particle kinds: the solid phase's particles (each a volume of the granular continuum, "grains" beside the
+# gas), fixed wall particles, wall particles moving with a plate
+GRAIN, WALL, MOVING_WALL = 0, 1, 2
 # recomputed by the evaluation that follows every rebuild: neither migrated nor reordered
-DERIVED = ("acc", "theta", "disp", "drag", "drag_rate", "flux")
+DERIVED = ("acc", "theta", "disp", "drag_coef", "drag_rate", "flux")
 
 
 class Particles:
@@ -178,7 +180,7 @@ def state_maxima(vel, acc, theta, kind, n, theta_floor):
             v2 = sv
         if not sa <= a2:
             a2 = sa
-        if kind[i] == FLUID and not theta[i] <= th:
+        if kind[i] == GRAIN and not theta[i] <= th:
             th = theta[i]
     return math.sqrt(v2), th, math.sqrt(a2)
 
@@ -188,7 +190,7 @@ def drag_maximum(drag, kind, n):
     """The largest drag coefficient C [1/s] of fluid particles 0..n-1 (NaN propagates)."""
     c = 0.0
     for i in range(n):
-        if kind[i] == FLUID:
+        if kind[i] == GRAIN:
             for d in range(drag.shape[1]):
                 if not drag[i, d] <= c:
                     c = drag[i, d]

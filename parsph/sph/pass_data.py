@@ -110,18 +110,18 @@ class ParticleArrays(NamedTuple):
     theta: np.ndarray
     acc: np.ndarray
     n_own: int
-    drag: np.ndarray   # with drag: per owned particle and component the coefficient C of its drag
-                       # acceleration C (w - v) (1/tau; the implicit update divides by 1 + dt C); else (0, dim)
+    drag_coef: np.ndarray  # with drag: per owned particle and component the coefficient C of its drag
+                           # acceleration C (w - v) (1/tau; the implicit update divides by 1 + dt C); else (0, dim)
     drag_rate: np.ndarray  # with drag: per owned particle the closure's K = beta / (rho_s theta eps) (the drag
                            # loops' contiguous scratch, body_force.drag_rates); else (0,)
     flux: np.ndarray   # the solved gas: per owned particle the mixture's flux j from the grid [m/s]; else (0, dim)
 
 
 def particle_arrays(ps):
-    """The passes' view of a Particles set (its arrays, not copies); ``drag``, ``drag_rate`` (and ``flux``) are
+    """The passes' view of a Particles set (its arrays, not copies); ``drag_coef``, ``drag_rate`` (and ``flux``) are
     the set's fields of those names where the run has a gas (the solved gas) (:meth:`parsph.sph.particles.Particles.add_field`), else
     empty arrays."""
-    drag = getattr(ps, "drag", None)
+    drag = getattr(ps, "drag_coef", None)
     drag_rate = getattr(ps, "drag_rate", None)
     if drag is None:
         drag, drag_rate = np.zeros((0, ps.dim)), np.zeros(0)

@@ -7,7 +7,7 @@ and the RMS over bins.
 import numpy as np
 from numba import njit
 
-from .particles import FLUID
+from .particles import GRAIN
 
 
 @njit(cache=True)
@@ -24,7 +24,7 @@ def bin_sums(pos, vel, theta, kind, n_own, dx, nbins, period, sums):
         sums[2, b] = 0.0
         sums[3, b] = 0.0
     for i in range(n_own):
-        if kind[i] != FLUID:
+        if kind[i] != GRAIN:
             continue
         x = pos[i, 0]
         if period > 0.0:

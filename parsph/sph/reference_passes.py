@@ -15,7 +15,7 @@ from numba import njit, prange
 
 from parsph.physics.kernels import kernel_w_f
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
-from .particles import FLUID
+from .particles import GRAIN
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ  # the columns of PairList.fields
 
 
@@ -132,7 +132,7 @@ def momentum_serial(lst, parts, c, sw):
             continue
         i = order[a]
         need_i = need[i]
-        fluid_i = kind[i] == FLUID
+        fluid_i = kind[i] == GRAIN
         xi = pos[i, 0]
         yi = pos[i, 1]
         zi = pos[i, 2] if len(three_d) else 0.0
@@ -172,7 +172,7 @@ def momentum_serial(lst, parts, c, sw):
                 s = 0.0
                 if len(viscosity):
                     mu = viscosity_coefficient(th_i, th_i, th_j, k_visc, symmetric_mu)
-                    if len(walls) and kind[j] != FLUID:
+                    if len(walls) and kind[j] != GRAIN:
                         mu *= wall_factor(xi, pos[j, 0], L, beta_max)
                     s = mu * V
                 m = mass[j]
@@ -202,7 +202,7 @@ def momentum_serial(lst, parts, c, sw):
 
 @njit(cache=True, inline="always")
 def _finish_acc(acc, k, kind, g, three_d):
-    if kind[k] == FLUID:
+    if kind[k] == GRAIN:
         acc[k, 0] += g[0]
         acc[k, 1] += g[1]
         if len(three_d):
@@ -261,7 +261,7 @@ def _momentum_threaded(order, pstart, pi, pj, n, npairs, fp, pos, mass, kind, fi
                 if len(viscosity):
                     mu = viscosity_coefficient(fields[k, THETA], fields[i, THETA], fields[j, THETA], k_visc,
                                                symmetric_mu)
-                    if len(walls) and kind[o] != FLUID:
+                    if len(walls) and kind[o] != GRAIN:
                         mu *= wall_factor(pos[k, 0], pos[o, 0], L, beta_max)
                     s = mu * V
                 m = mass[o]

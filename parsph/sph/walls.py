@@ -30,7 +30,7 @@ from parsph.physics.kernels import kernel_w_f
 from .body_force import drag_terms
 from .momentum import pressure_factor
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
-from .particles import FLUID
+from .particles import GRAIN
 from .pass_data import INV_RHO, INV_THETA, PRESS, THETA, VX, VY, VZ
 
 LN10 = math.log(10.0)
@@ -42,12 +42,12 @@ def wall_pairs(pi, pj, npairs, kind):
     """The indices p of the pairs (pi[p], pj[p]) of a wall and a fluid particle, in list order."""
     count = 0
     for p in range(npairs):
-        if (kind[pi[p]] == FLUID) != (kind[pj[p]] == FLUID):
+        if (kind[pi[p]] == GRAIN) != (kind[pj[p]] == GRAIN):
             count += 1
     out = np.empty(count, np.int64)
     count = 0
     for p in range(npairs):
-        if (kind[pi[p]] == FLUID) != (kind[pj[p]] == FLUID):
+        if (kind[pi[p]] == GRAIN) != (kind[pj[p]] == GRAIN):
             out[count] = p
             count += 1
     return out
@@ -58,7 +58,7 @@ def _members(p, pi, pj, kind):
     """(fluid, wall) of wall pair p."""
     a = pi[p]
     b = pj[p]
-    if kind[a] == FLUID:
+    if kind[a] == GRAIN:
         return a, b
     return b, a
 
@@ -173,7 +173,7 @@ def reflect(pos, vel, kind, n_own, L):
     cannot stop within a step (a loose layer falling as dust, Mach 30 at its grains' speed); the number."""
     count = 0
     for k in range(n_own):
-        if kind[k] != FLUID:
+        if kind[k] != GRAIN:
             continue
         x = pos[k, 0]
         if x < 0.0:

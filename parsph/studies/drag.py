@@ -14,7 +14,7 @@ import numpy as np
 from parsph.errors import GuardError
 from parsph.physics import gas_references as refs
 from parsph.setup import config
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 RHO_S, RHO_G, MU, G = 2000.0, 1000.0, 1.0e-3, 9.81
 STREAM = 0.01  # the stream's speed [m/s]
@@ -36,7 +36,7 @@ def diameter_for(tau, theta0):
 
 def _fluid_mean(sim, field, axis):
     ps = sim.ps
-    f = ps.kind[:ps.n_own] == FLUID
+    f = ps.kind[:ps.n_own] == GRAIN
     return float(getattr(ps, field)[:ps.n_own][f][:, axis].mean())
 
 

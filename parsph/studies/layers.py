@@ -27,7 +27,7 @@ from parsph.setup.runfile import RunFile
 from parsph.setup.scenes import layer
 from parsph.simulation.solver import Simulation
 from parsph.sph import projected
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 RUN = Path(__file__).resolve().parents[2] / "run"
 SEDIMENTATION = RUN / "sedimentation.toml"
@@ -38,7 +38,7 @@ BED_AIR = RUN / "fluidized_bed_air.toml"
 def fluid_state(sim):
     """The owned fluid particles' (x, mass, theta, |v|) as numpy copies."""
     ps = sim.ps
-    f = ps.kind[:ps.n_own] == FLUID
+    f = ps.kind[:ps.n_own] == GRAIN
     v = ps.vel[:ps.n_own][f]
     return (ps.pos[:ps.n_own, 0][f].copy(), ps.mass[:ps.n_own][f].copy(), ps.theta[:ps.n_own][f].copy(),
             np.sqrt((v * v).sum(axis=1)))

@@ -43,7 +43,7 @@ from mpi4py import MPI
 
 from parsph.errors import GuardError
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from .builders import couette
 from .machine import REPO, commit
 from .runs import JsonLines, Runs
@@ -100,7 +100,7 @@ def _perturb(sim, cfg, eps):
     """Move the fluid particle of the wall-adjacent column with the smallest y to d = eps dx."""
     ps = sim.ps
     n = ps.n_own
-    fluid = np.flatnonzero(ps.kind[:n] == FLUID)
+    fluid = np.flatnonzero(ps.kind[:n] == GRAIN)
     last = fluid[np.abs(ps.pos[fluid, 0] - (cfg.L - 0.5 * cfg.dx)) < 1e-9 * cfg.L]
     k = last[np.argmin(ps.pos[last, 1])]
     ps.pos[k, 0] = cfg.L - eps * cfg.dx
@@ -145,7 +145,7 @@ def run_choices(run, prof_dir=None):
         wall = time.perf_counter() - t_wall0
     cpu = time.process_time() - t_cpu0
     steps = sim.step
-    xf = sim.ps.pos[:sim.ps.n_own, 0][sim.ps.kind[:sim.ps.n_own] == FLUID]
+    xf = sim.ps.pos[:sim.ps.n_own, 0][sim.ps.kind[:sim.ps.n_own] == GRAIN]
     rec = {
         "choices": c, "status": status, "n_particles": sim.n_total, "n_fluid": cfg.Nx * cfg.Ny,
         "layers_used": cfg.layers, "dx": cfg.dx, "h": cfg.h, "dt_first": cfg.dt,

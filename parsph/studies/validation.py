@@ -18,7 +18,7 @@ from parsph.output import output_files, read_profile, read_snapshot
 from parsph.physics.analytic import settling_equilibrium
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 
 def settling_time(outdir, tol=1e-4):
@@ -26,7 +26,7 @@ def settling_time(outdir, tol=1e-4):
     settled = None
     for f in output_files(outdir):
         snap = read_snapshot(f)
-        vx = np.abs(snap["velocity"][snap["kind"] == FLUID, 0]).max()
+        vx = np.abs(snap["velocity"][snap["kind"] == GRAIN, 0]).max()
         if vx < tol:
             settled = settled if settled is not None else float(snap["attrs"]["time"])
         else:
@@ -46,7 +46,7 @@ def in_process(text, over):
 def theta_spread(outdir):
     """Standard deviation of the fluid particles' theta over their mean, at the last output."""
     snap = read_snapshot(output_files(outdir)[-1])
-    th = snap["theta"][snap["kind"] == FLUID]
+    th = snap["theta"][snap["kind"] == GRAIN]
     return float(th.std() / th.mean())
 
 

@@ -13,7 +13,7 @@ from parsph.physics import limits
 from parsph.physics.voidage_waves import Bed
 from parsph.setup import config
 from parsph.simulation.solver import Simulation
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.sph.profiles import mass_quantiles
 
 WAVES = Path(__file__).resolve().parents[2] / "run" / "voidage_waves.toml"
@@ -31,7 +31,7 @@ def bed_of(cfg):
 
 def mass_mode(ps, k):
     """sum_i m_i exp(-i k x_i) over the owned fluid particles."""
-    f = ps.kind[:ps.n_own] == FLUID
+    f = ps.kind[:ps.n_own] == GRAIN
     return complex(np.sum(ps.mass[:ps.n_own][f] * np.exp(-1j * k * ps.pos[:ps.n_own, 0][f])))
 
 
@@ -91,7 +91,7 @@ def periodic_bed(sets=(), t_end=1.0, path=WAVES):
 
     def observe(s):
         sol = s.gas.solution
-        f = s.ps.kind[:s.ps.n_own] == FLUID
+        f = s.ps.kind[:s.ps.n_own] == GRAIN
         rows.append((s.t, s.gas.darcy.gradient, sol.theta.min(), sol.theta.max(), s.ps.vel[:s.ps.n_own][f, 0].mean()))
     sim.run(observe=observe)
     a = np.array(rows)
@@ -125,7 +125,7 @@ def floor_bed(sets=(), t_end=2.0, path=BED_AIR):
                              "output.snapshots=false"])
     sim = Simulation(cfg, MPI.COMM_SELF)
     ps = sim.ps
-    f = ps.kind[:ps.n_own] == FLUID
+    f = ps.kind[:ps.n_own] == GRAIN
     g = math.sqrt(sum(x * x for x in cfg.g))
     weight = float(ps.mass[:ps.n_own][f].sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly
     rows, heights = [], []
@@ -133,7 +133,7 @@ def floor_bed(sets=(), t_end=2.0, path=BED_AIR):
     def observe(s):
         sol = s.gas.solution
         p = sol.p
-        fl = s.ps.kind[:s.ps.n_own] == FLUID
+        fl = s.ps.kind[:s.ps.n_own] == GRAIN
         h = mass_quantiles(s.ps.pos[:s.ps.n_own][fl, 0], s.ps.mass[:s.ps.n_own][fl], QUANTILES)
         below = (np.arange(p.shape[0]) + 0.5) * s.gas.grid.hx < h[2]
         rows.append((s.t, float(np.mean(1.5 * p[0] - 0.5 * p[1])), float(sol.theta[below].min())))

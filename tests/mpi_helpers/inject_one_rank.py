@@ -23,12 +23,12 @@ from mpi4py import MPI
 
 import parsph.simulation.solver
 from parsph import cli
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 
 
 def put_nan(sim, rank, step):
     ps = sim.ps
-    k = int(np.flatnonzero(ps.kind[:ps.n_own] == FLUID)[0])
+    k = int(np.flatnonzero(ps.kind[:ps.n_own] == GRAIN)[0])
     ps.vel[k, 1] = np.nan
     # one write (with its newline), so that mpirun cannot join it with another line
     sys.stderr.write(f"nan_one_rank: NaN put into particle {ps.gid[k]} on rank {rank} at step {step}\n")

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from parsph.setup import config
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from parsph.simulation.solver import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -76,7 +76,7 @@ def perturb(sim, amplitude, seed=7):
     ps, n, cfg = sim.ps, sim.ps.n_own, sim.cfg
     sites = (cfg.Nx + 2 * cfg.layers) * cfg.Ny * cfg.Nz
     kick = np.random.default_rng(seed).normal(0.0, amplitude, (sites, cfg.dim))
-    fluid = ps.kind[:n] == FLUID
+    fluid = ps.kind[:n] == GRAIN
     ps.vel[:n][fluid] += kick[ps.gid[:n][fluid]]
 
 

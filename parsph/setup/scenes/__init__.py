@@ -13,7 +13,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from parsph.sph.particles import FLUID, WALL, MOVING_WALL
+from parsph.sph.particles import GRAIN, WALL, MOVING_WALL
 
 SCENE_NAMES = ("couette", "poiseuille", "settling", "periodic_box", "sedimentation", "fluidized_bed")
 
@@ -78,7 +78,7 @@ def lattice(cfg, y_lo, y_hi, right_wall=WALL, right_velocity=0.0, fluid_columns=
     ncol = cfg.Nx + 2 * nw
     col = np.arange(ncol)
     x = (col - nw + 0.5) * cfg.dx
-    kind_col = np.where(col < nw, WALL, np.where(col >= nw + cfg.Nx, right_wall, FLUID))
+    kind_col = np.where(col < nw, WALL, np.where(col >= nw + cfg.Nx, right_wall, GRAIN))
     if fluid_columns is not None:
         keep = (col < nw + fluid_columns) | (col >= nw + cfg.Nx)
         col, x, kind_col = col[keep], x[keep], kind_col[keep]

@@ -26,7 +26,7 @@ import math
 
 from parsph.errors import ConfigError
 from parsph.physics import bed_expansion, consolidation, gas_references as refs, kynch, limits, voidage_waves
-from parsph.sph.particles import FLUID
+from parsph.sph.particles import GRAIN
 from . import lattice
 
 
@@ -108,7 +108,7 @@ def transient(cfg, times):
 
 def particles(cfg, y_lo, y_hi):
     gid, kind, m, pos, vel = lattice(cfg, y_lo, y_hi, fluid_columns=fluid_columns(cfg))
-    m[kind != FLUID] = 0.0  # the walls continue the solids' state (parsph.sph.walls): no mass of their own
+    m[kind != GRAIN] = 0.0  # the walls continue the solids' state (parsph.sph.walls): no mass of their own
     return gid, kind, m, pos, vel
 
 
