@@ -67,6 +67,7 @@ def measure(path, cfg):
     """The :class:`Bed` of a run's outputs (those with particles and a grid)."""
     import h5py
     from parsph.gas import bubbles
+    from parsph.gas.grid import floor_drop
     from parsph.output import output_files
     from parsph.sph.particles import GRAIN
     from parsph.sph.profiles import mass_quantiles
@@ -89,7 +90,7 @@ def measure(path, cfg):
             m = f["particles/mass"][()][fluid]
         weight = float(m.sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly
         found = bubbles.find(theta, hx, hy, threshold)
-        frame = Frame(t, float(np.mean(1.5 * p[0] - 0.5 * p[1])), weight, mass_quantiles(x, m), found)
+        frame = Frame(t, floor_drop(p), weight, mass_quantiles(x, m), found)
         if before is not None and frame.t > before.t:
             for pair in bubbles.match(before.bubbles, found, frame.t - before.t, theta.shape):
                 bed.pairs.append((frame.t, pair, bubbles.throughflow(pair.after, u_gx, hy, pair.velocity)))

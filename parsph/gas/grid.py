@@ -4,6 +4,8 @@ walls, else the period; y (and z) are periodic."""
 from dataclasses import dataclass
 import math
 
+import numpy as np
+
 
 @dataclass(frozen=True)
 class Grid:
@@ -42,3 +44,9 @@ def grid_of(L, Ly, cell, walls):
     if not walls:
         nx = max(3, nx)
     return Grid(nx, ny, L / nx, Ly / ny, bool(walls))
+
+
+def floor_drop(p):
+    """The pressure drop across a bed on the floor [Pa]: p' (nx, ny) at the floor, extrapolated from the first
+    two rows of cells and averaged across (the open top holds p' = 0)."""
+    return float(np.mean(1.5 * p[0] - 0.5 * p[1]))

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
+from parsph.gas.grid import floor_drop
 from parsph.physics import limits
 from parsph.physics.voidage_waves import Bed
 from parsph.setup import config
@@ -136,7 +137,7 @@ def floor_bed(sets=(), t_end=2.0, path=BED_AIR):
         fl = s.ps.kind[:s.ps.n_own] == GRAIN
         h = mass_quantiles(s.ps.pos[:s.ps.n_own][fl, 0], s.ps.mass[:s.ps.n_own][fl], QUANTILES)
         below = (np.arange(p.shape[0]) + 0.5) * s.gas.grid.hx < h[2]
-        rows.append((s.t, float(np.mean(1.5 * p[0] - 0.5 * p[1])), float(sol.theta[below].min())))
+        rows.append((s.t, floor_drop(p), float(sol.theta[below].min())))
         heights.append(h)
     sim.run(observe=observe)
     a = np.array(rows)
