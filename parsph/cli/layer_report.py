@@ -183,10 +183,13 @@ def report(path, p, cfg, tol_heights=TOL_HEIGHTS, tol_theta=TOL_THETA):
     end = layer.end_state(cfg)
     lo, hi = interior_span(cfg)
     rows = measures(path, p, cfg, tol_theta)
+    tr = layer.transient(cfg, [r.t for r in rows if r.t > 0] or [1.0])
     if cfg.gas is None:
         what = "the end state (no gas: the layer falls under gravity alone to the hydrostatic sediment)"
+    elif tr is None:
+        what = ("the end state (the steady column with the packing limit's frictional pressure; the transient's "
+                "solver has G's pressure only)")
     else:
-        tr = layer.transient(cfg, [r.t for r in rows if r.t > 0] or [1.0])
         what = (f"the layer's transient (the sedimentation-consolidation equation of the column closure, "
                 f"{tr.cells} cells)")
     if end.U > 0:
@@ -235,7 +238,8 @@ def report(path, p, cfg, tol_heights=TOL_HEIGHTS, tol_theta=TOL_THETA):
 def _compression_length(cfg):
     from parsph.physics import bed_expansion
     from parsph.setup.scenes import layer
-    return bed_expansion.compression_length(cfg.gas.U, layer.phases(cfg), cfg.G_a, cfg.G_b, layer.form(cfg))
+    return bed_expansion.compression_length(cfg.gas.U, layer.phases(cfg), cfg.G_a, cfg.G_b, layer.form(cfg),
+                                           cfg.packing)
 
 
 def profile_figure(p, cfg):

@@ -69,24 +69,22 @@ def _read(path, fn):
         raise UsageError(f"cannot read output {path}: {e}") from None
 
 
-def print_layer(path, tol=None):
+def print_layer(path, p, tol=None):
     """A layer scene's check (:func:`.layer_report.report`; a bubbling bed's, :func:`.bed_report.report`): print
-    its table, return its Verdict; None for other scenes. ``tol``: both the heights' (of H0) and the interior
-    theta's tolerance (default each its own), or the bed's pressure drop's."""
-    from parsph.output import read_profile
+    its table, return its Verdict; None for other scenes. ``p``: the output's profile (read_profile's);
+    ``tol``: both the heights' (of H0) and the interior theta's tolerance (default each its own), or the bed's
+    pressure drop's."""
     from . import layer_report
     from . import bed_report
-    p = read_profile(path)
-    cfg = layer_report.layer_run(p)
-    if cfg is None:
-        return None
-    if bed_report.bed_run(p) is not None:  # bubbling: no 1-D reference; the drop against the weight judges
+    cfg = bed_report.bed_run(p)
+    if cfg is not None:  # bubbling: no 1-D reference; the drop against the weight judges
         lines, verdict = bed_report.report(path, cfg, bed_report.TOL_DROP if tol is None else tol)
-        for line in lines:
-            print(line)
-        return verdict
-    tols = (layer_report.TOL_HEIGHTS, layer_report.TOL_THETA) if tol is None else (tol, tol)
-    lines, verdict = layer_report.report(path, p, cfg, *tols)
+    else:
+        cfg = layer_report.layer_run(p)
+        if cfg is None:
+            return None
+        tols = (layer_report.TOL_HEIGHTS, layer_report.TOL_THETA) if tol is None else (tol, tol)
+        lines, verdict = layer_report.report(path, p, cfg, *tols)
     for line in lines:
         print(line)
     return verdict
@@ -104,7 +102,7 @@ def print_outputs(path, tol=None, table_tol=None):
     # a bubbling bed has no reference for its profile (none is 1-D): no table
     worst = None if bed_report.bed_run(p) is not None else _read(path, lambda q: print_table(q, None if layer
                                                                                              else table_tol))
-    return worst, _read(path, lambda q: print_layer(q, tol))
+    return worst, _read(path, lambda q: print_layer(q, p, tol))
 
 
 def cmd_check(args):

@@ -97,7 +97,7 @@ def check_form(form):
         raise ValueError(f"pressure form {form!r}: one of {limits.FORMS}")
 
 
-def compression_length(U, ph, G_a=G_A, G_b=G_B, form="paper"):
+def compression_length(U, ph, G_a=G_A, G_b=G_B, form="paper", packing=()):
     """Ref. 3: l = p_s'(theta*) / f'(theta*) [m], f of :func:`column_rhs`: the length over which the profile
     relaxes to theta* (theta* - theta ~ exp(-(x_top - x)/l) away from the top); a bed much taller than l has a
     uniform interior. f' by a central difference (step 1e-6 theta*)."""
@@ -105,7 +105,7 @@ def compression_length(U, ph, G_a=G_A, G_b=G_B, form="paper"):
     th = uniform_bed_fraction(U, ph)
     h = 1e-6 * min(th, 1.0 - th)
     fp = (column_rhs(th + h, U, ph) - column_rhs(th - h, U, ph)) / (2.0 * h)
-    return limits.dpressure(th, G_a, G_b, form) / fp
+    return limits.dpressure(th, G_a, G_b, form, packing) / fp
 
 
 class Column:
@@ -161,13 +161,14 @@ class Column:
         return self.top - s
 
 
-def steady_column(mass, U, ph, G_a=G_A, G_b=G_B, form="paper", rtol=1e-12):
+def steady_column(mass, U, ph, G_a=G_A, G_b=G_B, form="paper", rtol=1e-12, packing=()):
     """Ref. 3 (U > 0) and the final sediment of ref. 4 (U = 0): the steady theta(x) of a column at rest on the
     floor with ``mass`` [kg/m^2] = int rho_s theta dx and a free top, from
 
         p_s'(theta) dtheta/dx = f(theta) = beta(theta, U/eps) U / eps^2 - theta (rho_s - rho_g) |g|
 
-    (p_s of the pressure form ``form``, x up from the floor). Returns a :class:`Column`.
+    (p_s of the pressure form ``form``, with the frictional p_f of a packing limit ``packing`` = (theta_min,
+    theta_max) where given; x up from the floor). Returns a :class:`Column`.
 
     Integrated from the top down, in the depth s below a start point: dtheta/ds = -f/p_s', d(int theta)/ds = theta,
     to the depth where int theta dx reaches mass / rho_s (the floor): solve_ivp (DOP853, ``rtol``) with an event.
@@ -191,7 +192,7 @@ def steady_column(mass, U, ph, G_a=G_A, G_b=G_B, form="paper", rtol=1e-12):
     target = mass / ph.rho_s                                      # int theta dx [m]
 
     def dp(th):
-        return limits.dpressure(th, G_a, G_b, form)
+        return limits.dpressure(th, G_a, G_b, form, packing)
 
     def q(th):                                                    # dtheta/ds = -f / p_s' > 0 below theta*
         return -column_rhs(th, U, ph) / dp(th)

@@ -2,7 +2,10 @@
 
 - elastic modulus G(theta) = 10^(a theta + b) Pa (Jayaswal 1991), with
   grad p_s = G(theta) grad theta;
-- solids viscosity mu_s = k theta.
+- solids viscosity mu_s = k theta;
+- where a run sets a packing limit (``material.theta_max``), a frictional pressure p_f(theta) that
+  diverges there (Johnson & Jackson 1987, Johnson, Jackson & Pfeffer's constants as MFiX's defaults),
+  added to the consistent form's p = G / (G_a ln 10): :func:`packing_pressure`.
 
 In the pair loop G is needed at the pair-mean theta; it factorises exactly:
 G((theta_i + theta_j)/2) = 10^b * 10^(a theta_i / 2) * 10^(a theta_j / 2),
@@ -28,6 +31,36 @@ def modulus_unchecked(theta, a, b):
 def half_modulus(theta, a):
     """10^(a theta / 2): the per-particle factor of G at the pair mean (the pair loops call it)."""
     return math.exp(0.5 * a * LN10 * theta)
+
+
+# p_f = FR (theta - theta_min)^2 / (theta_max - theta)^5 [Pa] (Johnson & Jackson 1987; FR, n = 2, p = 5 of
+# Johnson, Jackson & Pfeffer 1990, MFiX's defaults). Past theta_c = theta_max - PACKING_TANGENT (theta_max -
+# theta_min) p_f continues on its tangent: a grain pressed past theta_c within one step meets a steep, finite
+# pressure instead of a pole (and a sign change) at theta_max.
+FRICTION_FR = 0.05
+PACKING_TANGENT = 0.1
+THETA_MIN = 0.5  # material.theta_min's default: p_f = 0 below it
+
+
+@njit(cache=True)
+def packing_pressure(theta, theta_min, theta_max):
+    """(p_f, dp_f/dtheta) [Pa] of the frictional pressure at theta (zero at or below theta_min)."""
+    if not theta > theta_min:
+        return 0.0, 0.0
+    tc = theta_max - PACKING_TANGENT * (theta_max - theta_min)
+    t = min(theta, tc)
+    a = t - theta_min
+    b = theta_max - t
+    p = FRICTION_FR * a * a / (b * b * b * b * b)
+    dp = p * (2.0 / a + 5.0 / b)
+    if theta > tc:
+        p += dp * (theta - tc)
+    return p, dp
+
+
+def packing_limit(theta_min, theta_max):
+    """theta_c: where p_f leaves its closed form for its tangent (a run's grains should stay below it)."""
+    return theta_max - PACKING_TANGENT * (theta_max - theta_min)
 
 
 def modulus(theta, a=G_A, b=G_B):

@@ -50,7 +50,7 @@ stable for dt < 2 tau and free of overshoot for dt < tau; docs/physics.md). Impl
 :func:`state_limit` is the one place of these three (numba; the compiled blocks call it).
 
 The functions take their arguments in three groups, as the passes do:
-:class:`Material` (rho_s, k, G_a, G_b), :class:`Lattice` (h, the lattice
+:class:`Material` (rho_s, k, G_a, G_b, the packing limit), :class:`Lattice` (h, the lattice
 steps, the kernel, the walls' beta_max) and :class:`Terms` (which terms of
 Eq. (5) and the pressure form); :func:`groups` makes them from a run.
 """
@@ -71,11 +71,13 @@ LN10 = math.log(10.0)
 
 
 class Material(NamedTuple):
-    """The solid: rho_s [kg/m^3], mu_s = k theta [Pa s], G = 10^(G_a theta + G_b) [Pa]."""
+    """The solid: rho_s [kg/m^3], mu_s = k theta [Pa s], G = 10^(G_a theta + G_b) [Pa] and the packing
+    limit (theta_min, theta_max) of the frictional pressure, () for none (:func:`.closures.packing_pressure`)."""
     rho_s: float
     k: float
     G_a: float
     G_b: float
+    packing: tuple = ()
 
 
 class Lattice(NamedTuple):
@@ -96,36 +98,41 @@ class Terms(NamedTuple):
 
 def groups(cfg):
     """(Material, Lattice, Terms) of the run ``cfg``."""
-    return (Material(cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b),
+    return (Material(cfg.rho_s, cfg.k, cfg.G_a, cfg.G_b, cfg.packing),
             Lattice(cfg.h, tuple(cfg.spacing), cfg.kernel, cfg.beta_max if cfg.scene.walls else None),
             Terms(bool(cfg.pressure), bool(cfg.viscosity), cfg.get("numerics.pressure_form")))
 
 
 # ---- the sound speed of each pressure form -----------------------------------------------------------
-def pressure(theta, G_a, G_b, form):
-    """The effective pressure p(theta) [Pa] whose SPH gradient the discrete Eq. (5) is."""
+def pressure(theta, G_a, G_b, form, packing=()):
+    """The effective pressure p(theta) [Pa] whose SPH gradient the discrete Eq. (5) is (with a packing limit
+    (theta_min, theta_max), the consistent form's p plus the frictional p_f)."""
     G = closures.modulus(theta, G_a, G_b)
-    return G * theta if form == "paper" else G / (G_a * LN10)
+    if form == "paper":
+        return G * theta
+    return G / (G_a * LN10) + (closures.packing_pressure(theta, *packing)[0] if packing else 0.0)
 
 
-def dpressure(theta, G_a, G_b, form):
-    """dp/dtheta [Pa]: G (1 + G_a ln10 theta) for the paper form, G for the consistent one."""
+def dpressure(theta, G_a, G_b, form, packing=()):
+    """dp/dtheta [Pa]: G (1 + G_a ln10 theta) for the paper form, G (+ dp_f/dtheta) for the consistent one."""
     G = closures.modulus(theta, G_a, G_b)
-    return G * (1.0 + G_a * LN10 * theta) if form == "paper" else G
+    if form == "paper":
+        return G * (1.0 + G_a * LN10 * theta)
+    return G + (closures.packing_pressure(theta, *packing)[1] if packing else 0.0)
 
 
-def sound_speed(theta, rho_s, G_a, G_b, form):
+def sound_speed(theta, rho_s, G_a, G_b, form, packing=()):
     """c = sqrt(dp/dtheta / rho_s) [m/s] of the pressure form."""
-    return math.sqrt(dpressure(theta, G_a, G_b, form) / rho_s)
+    return math.sqrt(dpressure(theta, G_a, G_b, form, packing) / rho_s)
 
 
 # ---- classical limits ----------------------------------------------------------------------------------
 def classical_limits(theta, vmax, material, lattice, terms=Terms(), amax=0.0):
     """Monaghan's limits [s] with the form's sound speed: CFL 0.25 h / (c + |v|), viscous 0.125 h^2 / nu,
     force 0.25 sqrt(h / |a|) (inf where absent). For comparison; the run uses :func:`limits`."""
-    rho_s, k, G_a, G_b = material
+    rho_s, k, G_a, G_b, packing = material
     h = lattice.h
-    c = sound_speed(theta, rho_s, G_a, G_b, terms.form)
+    c = sound_speed(theta, rho_s, G_a, G_b, terms.form, packing)
     nu = k * theta / rho_s
     return {"cfl": 0.25 * h / (c + vmax) if c + vmax > 0 else math.inf,
             "viscous": 0.125 * h * h / nu if nu > 0 else math.inf,
@@ -172,7 +179,7 @@ def lattice_sums(kernel, dim, spacing, nkappa=NKAPPA):
 
 def modes(theta, material, lattice, terms=Terms(), nkappa=NKAPPA):
     """omega^2 [nk, dim] (eigenvalues of K) and gamma [nk] of the lattice's modes, and their kappa [nk, dim]."""
-    rho_s, k, G_a, G_b = material
+    rho_s, k, G_a, G_b, packing = material
     h, spacing, kernel = lattice.h, lattice.spacing, lattice.kernel
     form, pressure_on, viscosity_on = terms.form, terms.pressure, terms.viscosity
     dim = len(spacing)
@@ -181,7 +188,7 @@ def modes(theta, material, lattice, terms=Terms(), nkappa=NKAPPA):
     m = rho_s * theta / S
     if pressure_on:
         rho = rho_s * theta
-        p, dp = pressure(theta, G_a, G_b, form), dpressure(theta, G_a, G_b, form)
+        p, dp = pressure(theta, G_a, G_b, form, packing), dpressure(theta, G_a, G_b, form, packing)
         Q0 = 2.0 * p / (rho * rho)
         Qp = (dp - 2.0 * p / theta) / (rho * rho)
         K = (m * m * Qp / rho_s) * b[:, :, None] * b[:, None, :] + m * Q0 * D
@@ -284,10 +291,10 @@ def linear_limit(theta, material, lattice, terms=Terms(), integrator="paper", nk
     pressure) are unstable at every dt in both integrators (slowly); the limit
     is then the CFL one, term "cfl".
     """
-    rho_s, k, G_a, G_b = material
+    rho_s, k, G_a, G_b, packing = material
     h, spacing, kernel, beta_max = lattice
     if terms.pressure and not (terms.viscosity and k > 0):
-        return 0.25 * h / sound_speed(theta, rho_s, G_a, G_b, terms.form), "cfl"
+        return 0.25 * h / sound_speed(theta, rho_s, G_a, G_b, terms.form, packing), "cfl"
     omega2, gamma, _ = modes(theta, material, lattice, terms, nkappa)
     omega2, gamma = omega2.ravel(), np.repeat(gamma, omega2.shape[1])
     if beta_max is not None and terms.viscosity:

@@ -13,6 +13,7 @@ import math
 
 from parsph.physics.kernels import get_kernel
 from parsph.physics import drag as closures_drag
+from parsph.physics import closures
 from parsph.physics import limits as stability
 from parsph.errors import ConfigError
 from .gas_config import gas_of, solved_grid
@@ -83,6 +84,7 @@ class RunConfig:
     pressure: bool = True
     viscosity: bool = True
     limits: dict = field(default_factory=dict)
+    packing: tuple = ()  # (theta_min, theta_max) of the frictional pressure (material.theta_max), () for none
 
     @property
     def nu(self):
@@ -322,6 +324,29 @@ def _time_step(v, cfg):
     return dict(dt=dt, dt_auto=auto, nsteps=nsteps, output_times=times, limits=limits)
 
 
+def _packing(v):
+    """(theta_min, theta_max) of ``material.theta_max``'s frictional pressure, () where it is not given."""
+    mat = v["material"]
+    lo, hi = mat["theta_min"], mat["theta_max"]
+    if hi is None:
+        if lo is not None:
+            raise ConfigError("material.theta_min", "is where the packing limit's frictional pressure starts: "
+                              "it needs material.theta_max")
+        return ()
+    lo = closures.THETA_MIN if lo is None else lo
+    if not lo < hi < 1.0:
+        raise ConfigError("material.theta_max", f"{hi:g} must lie between material.theta_min = {lo:g} and 1")
+    if v["numerics"]["pressure_form"] != "consistent":
+        raise ConfigError("material.theta_max", "the frictional pressure adds to p = G / (G_a ln 10): it needs "
+                          "numerics.pressure_form = \"consistent\"")
+    tc = closures.packing_limit(lo, hi)
+    if not mat["theta0"] < tc:
+        raise ConfigError("material.theta0", f"{mat['theta0']:g} is past the packing limit's theta_c = {tc:.4g} "
+                          f"(material.theta_max = {hi:g}), where the frictional pressure is its tangent: start "
+                          "below it")
+    return (lo, hi)
+
+
 def build(run_file):
     """Validate a :class:`RunFile` and derive the run's quantities."""
     text = run_file.dump()
@@ -339,6 +364,7 @@ def build(run_file):
     if gas is not None and gas.solved:
         gas = solved_grid(gas, lat, scene.walls)
     theta0 = mat["theta0"]
+    packing = _packing(v)
     cfg = RunConfig(
         values=v, text=text, **lat, layers=layers,
         mass=mat["rho_s"] * theta0 * lat["dx"] * lat["dy"] * (lat["dz"] if dim == 3 else 1.0), rho_s=mat["rho_s"],
@@ -346,7 +372,7 @@ def build(run_file):
         kernel=num["kernel"], dt=0.0, dt_auto=False, t_end=out["t_end"], nsteps=0, output_times=(),
         integrator=num["integrator"], g=g, scene=scene, gas=gas,
         pressure=_pressure_term(v, scene),
-        viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"])
+        viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"], packing=packing)
     if scene.check is not None:
         scene.check(cfg)
     return replace(cfg, **_time_step(v, cfg))

@@ -55,6 +55,12 @@ SCHEMA = {
         "G_a": Key("float", G_A, doc="G = 10^(G_a theta + G_b) [Pa]"),
         "G_b": Key("float", G_B, doc="G = 10^(G_a theta + G_b) [Pa]"),
         "d": Key("float", 3.0e-4, positive=True, doc="grain diameter [m] (the gas's drag; Table 1's d_s)"),
+        "theta_max": Key("float", None, positive=True, hi=1.0,
+                         doc="packing limit: a frictional pressure p_f = 0.05 Pa (theta - theta_min)^2 / "
+                             "(theta_max - theta)^5 (Johnson & Jackson 1987) added to the consistent form's p; "
+                             "none by default"),
+        "theta_min": Key("float", None, positive=True, hi=1.0,
+                         doc="with theta_max: where the frictional pressure starts (default 0.5)"),
     },
     "walls": {
         "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),

@@ -30,7 +30,7 @@ import math
 
 from numba import njit, prange, uintp
 
-from parsph.physics.closures import half_modulus, modulus_unchecked
+from parsph.physics.closures import half_modulus, modulus_unchecked, packing_pressure
 from .body_force import drag_plain, drag_rates, finish_acc
 from .pair_terms import pressure_term, viscosity_coefficient, viscous_term, wall_factor
 from .particles import GRAIN
@@ -41,20 +41,26 @@ DRAG_CHUNK = 512  # particles per parallel chunk of the drag's rates (threaded m
 
 # ---- the rows the pair loops read ------------------------------------------------------------------
 @njit(cache=True, inline="always")
-def pressure_factor(th, rho_i, G_a, G_b, consistent):
+def pressure_factor(th, rho_i, G_a, G_b, consistent, theta_min, theta_max):
     """The per-particle factor of the pressure term at theta = rho_bar / rho_s.
 
     10^(G_a theta / 2) for the paper's form (G at the pair mean is
     10^G_b press_i press_j) and p(theta) / rho_bar^2 for the consistent form,
-    with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly.
+    with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly
+    (``theta_max`` > 0, a packing limit: plus the frictional p_f of :func:`.closures.packing_pressure`; a
+    branch at run time, not a compiled switch: no loop is compiled twice for it).
     """
     if len(consistent):
-        return modulus_unchecked(th, G_a, G_b) / (G_a * math.log(10.0)) / (rho_i * rho_i)
+        p = modulus_unchecked(th, G_a, G_b) / (G_a * math.log(10.0))
+        if theta_max > 0.0:
+            p += packing_pressure(th, theta_min, theta_max)[0]
+        return p / (rho_i * rho_i)
     return half_modulus(th, G_a)
 
 
 @njit(cache=True, inline="always")
-def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel, theta, fields):
+def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, theta_min, theta_max,
+                 vel, theta, fields):
     """rho, theta and the pair loops' row of particle k."""
     if k < owned_stop and kind[k] == GRAIN:
         rho[k] = rho_sum[k]
@@ -67,15 +73,16 @@ def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, c
     fields[k, INV_RHO] = 1.0 / r
     fields[k, INV_THETA] = 1.0 / th
     if len(pressure):
-        fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent)
+        fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent, theta_min, theta_max)
 
 
 @njit(cache=True, parallel=True)
-def _particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel,
-                     theta, fields):
+def _particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, theta_min,
+                      theta_max, vel, theta, fields):
     """:func:`particle_factors` on plain arguments (see :func:`parsph.sph.density._density_threaded`)."""
     for k in prange(start, stop):
-        _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, vel, theta, fields)
+        _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, theta_min, theta_max,
+                     vel, theta, fields)
 
 
 @njit(cache=True)
@@ -87,7 +94,7 @@ def particle_factors(lst, parts, c, sw, start, stop):
     of its neighbour. Owned wall particles and halo copies keep their rho.
     """
     _particle_factors(parts.rho, lst.rho_sum, parts.kind, start, stop, parts.n_own, c.rho_s, c.G_a, c.G_b,
-                      sw.pressure, sw.consistent, parts.vel, parts.theta, lst.fields)
+                      sw.pressure, sw.consistent, c.theta_min, c.theta_max, parts.vel, parts.theta, lst.fields)
 
 
 @njit(cache=True)
@@ -98,6 +105,7 @@ def particle_factors_serial(lst, parts, c, sw, start, stop):
     unsigned indices (no test for a negative one): 25% faster."""
     rho, rho_sum, kind, vel, theta, fields = parts.rho, lst.rho_sum, parts.kind, parts.vel, parts.theta, lst.fields
     owned_stop, rho_s, G_a, G_b, pressure, consistent = parts.n_own, c.rho_s, c.G_a, c.G_b, sw.pressure, sw.consistent
+    theta_min, theta_max = c.theta_min, c.theta_max
     dim = vel.shape[1]
     own = uintp(owned_stop)
     for k in range(uintp(start), uintp(max(start, stop))):
@@ -112,7 +120,7 @@ def particle_factors_serial(lst, parts, c, sw, start, stop):
         fields[k, INV_RHO] = 1.0 / r
         fields[k, INV_THETA] = 1.0 / th
         if len(pressure):
-            fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent)
+            fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent, theta_min, theta_max)
 
 
 

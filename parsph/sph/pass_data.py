@@ -70,6 +70,8 @@ class Constants(NamedTuple):
     mass: float        # every particle's mass where Switches.uniform_mass is on (else unused)
     gas: GasConstants  # the gas where Switches.drag is on (else zeros)
     wall_volume: float  # the volume a wall particle stands for where Switches.mirror is on (one lattice site)
+    theta_min: float    # the packing limit's frictional pressure (closures.packing_pressure), the consistent form's
+    theta_max: float    # p = G / (G_a ln 10) + p_f; theta_max = 0: none
 
 
 class PairList(NamedTuple):

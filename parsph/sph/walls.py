@@ -13,7 +13,8 @@ state beyond the plate:
   extrapolation for a wall at rest, never below the particle's own), ``a_i`` the body force on i:
   gravity with buoyancy plus the drag i would feel at rest, ``C (w - 0)`` of the gas's flow
   (:func:`rest_drag`), so that a bed the gas carries presses on its floor only with what the gas leaves;
-  ``theta_w = p^-1(p_w)`` in the run's pressure form (consistent: p = G / (G_a ln 10); the paper's:
+  ``theta_w = p^-1(p_w)`` in the run's pressure form (consistent: p = G / (G_a ln 10), plus the packing
+  limit's p_f where the run has one; the paper's:
   p = G theta), mass ``rho_s theta_w V_w``; the pair's P, V, mu and the no-slip beta of
   :mod:`.pair_terms` (:func:`forces`, after Eq. (5)'s fluid pairs, in the order of the list).
 
@@ -25,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from parsph.physics.closures import modulus_unchecked
+from parsph.physics.closures import modulus_unchecked, packing_pressure
 from parsph.physics.kernels import kernel_w_f
 from .body_force import drag_terms
 from .momentum import pressure_factor
@@ -99,16 +100,27 @@ def rest_drag(i, flow, axis, sign, U, u, flux, K, eps, three_d):
 
 
 @njit(cache=True, inline="always")
-def mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent):
+def mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, theta_min, theta_max):
     """theta_w with p(theta_w) = p(theta_i) + rho_s theta_i rise (rise >= 0): exact for the consistent form's
     p = G / (G_a ln 10); for the paper's p = G theta, Newton on ln p, concave in theta, from below (monotone) to
-    round-off."""
+    round-off; with the packing limit's p_f (``theta_max`` > 0), Newton on p (convex) from G's own root, which
+    lies above (monotone) to round-off."""
     if rise <= 0.0:
         return th_i
     ga = G_a * LN10
     G = modulus_unchecked(th_i, G_a, G_b)
     if len(consistent):
-        return th_i + math.log1p(rho_s * th_i * rise * ga / G) / ga
+        th = th_i + math.log1p(rho_s * th_i * rise * ga / G) / ga
+        if theta_max > 0.0:
+            target = G / ga + packing_pressure(th_i, theta_min, theta_max)[0] + rho_s * th_i * rise
+            for _ in range(60):
+                Gt = modulus_unchecked(th, G_a, G_b)
+                pf, dpf = packing_pressure(th, theta_min, theta_max)
+                step = (Gt / ga + pf - target) / (Gt + dpf)
+                th -= step
+                if not abs(step) > 1e-15 * th:
+                    break
+        return th
     x = math.log1p(rho_s * rise / G)  # p_i = G theta_i
     th = th_i
     for _ in range(60):
@@ -127,6 +139,7 @@ def forces(lst, parts, c, sw):
     rho_s, G_a, G_b, gas = c.rho_s, c.G_a, c.G_b, c.gas
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     three_d, consistent = sw.three_d, sw.consistent
+    theta_min, theta_max = c.theta_min, c.theta_max
     for q in range(len(pairs)):
         i, w = _members(pairs[q], pi, pj, kind)
         rx, ry, rz, r = _offset(pos, i, w, three_d)
@@ -147,13 +160,17 @@ def forces(lst, parts, c, sw):
             un += (fields[i, VZ] - fields[w, VZ]) * rz / r
         un = -un  # the speed at which i approaches w
         if un > 0.0:
-            rise += un * (math.sqrt(modulus_unchecked(th_i, G_a, G_b) / rho_s) + un)
-        th_w = mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent)
+            stiff = modulus_unchecked(th_i, G_a, G_b)
+            if theta_max > 0.0:
+                stiff += packing_pressure(th_i, theta_min, theta_max)[1]
+            rise += un * (math.sqrt(stiff / rho_s) + un)
+        th_w = mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, theta_min, theta_max)
         rho_w = rho_s * th_w
         m_w = rho_w * c.wall_volume
         P = 0.0
         if len(sw.pressure):
-            P = pressure_term(fields[i, PRESS], pressure_factor(th_w, rho_w, G_a, G_b, consistent), fields[i, INV_THETA],
+            p_w = pressure_factor(th_w, rho_w, G_a, G_b, consistent, theta_min, theta_max)
+            P = pressure_term(fields[i, PRESS], p_w, fields[i, INV_THETA],
                               1.0 / th_w, f, c_press, consistent)
         s = 0.0
         if len(sw.viscosity):

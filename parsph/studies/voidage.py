@@ -27,7 +27,8 @@ def bed_of(cfg):
     gas = cfg.gas
     g = math.sqrt(sum(x * x for x in cfg.g))
     return Bed(cfg.theta0, cfg.rho_s, gas.rho, gas.mu, gas.d, g, cfg.k * cfg.theta0,
-               limits.dpressure(cfg.theta0, cfg.G_a, cfg.G_b, cfg.get("numerics.pressure_form")), gas.model)
+               limits.dpressure(cfg.theta0, cfg.G_a, cfg.G_b, cfg.get("numerics.pressure_form"), cfg.packing),
+               gas.model)
 
 
 def mass_mode(ps, k):

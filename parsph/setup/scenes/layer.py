@@ -64,8 +64,8 @@ def form(cfg):
 
 
 @lru_cache(maxsize=16)
-def _column(ph, mass, U, G_a, G_b, form):
-    return bed_expansion.steady_column(mass, U, ph, G_a, G_b, form)
+def _column(ph, mass, U, G_a, G_b, form, packing):
+    return bed_expansion.steady_column(mass, U, ph, G_a, G_b, form, packing=packing)
 
 
 @lru_cache(maxsize=16)
@@ -82,7 +82,7 @@ def end_state(cfg):
     """The layer's steady state (bed_expansion.Column): the hydrostatic sediment (U = 0, or no gas), else the steady
     column at U with the layer's mass."""
     U = cfg.gas.U if cfg.gas is not None else 0.0
-    return _column(phases(cfg), mass(cfg), U, cfg.G_a, cfg.G_b, form(cfg))
+    return _column(phases(cfg), mass(cfg), U, cfg.G_a, cfg.G_b, form(cfg), cfg.packing)
 
 
 def sedimentation(cfg):
@@ -99,8 +99,9 @@ def transient(cfg, times):
     """The layer's whole transient in the column closure with inertia dropped (consolidation.Transient: the
     sedimentation-consolidation equation from the layer at rest, theta0 up to H0, to the lid) at ``times``
     [s] (> 0); None without a gas (the layer then falls under gravity alone: no such reference). It applies to
-    ``gas.flow = "solved"`` too, the grid's gas reducing to the column closure in a layer uniform across."""
-    if cfg.gas is None:
+    ``gas.flow = "solved"`` too, the grid's gas reducing to the column closure in a layer uniform across.
+    None too with a packing limit (``material.theta_max``: that solver has G's p_s only)."""
+    if cfg.gas is None or cfg.packing:
         return None
     return _transient(phases(cfg), cfg.theta0, layer_height(cfg), cfg.L, cfg.gas.U, cfg.G_a, cfg.G_b, form(cfg),
                       tuple(sorted(set(float(t) for t in times))))
@@ -183,7 +184,7 @@ def numbers(cfg):
     if gas.U > 0:
         theta = end_state(cfg).theta_star
     bed = voidage_waves.Bed(theta, cfg.rho_s, gas.rho, gas.mu, gas.d, ph.g, cfg.k * theta,
-                            limits.dpressure(theta, cfg.G_a, cfg.G_b, form(cfg)), gas.model)
+                            limits.dpressure(theta, cfg.G_a, cfg.G_b, form(cfg), cfg.packing), gas.model)
     return Numbers(cfg.theta0, H0, gas.U, cfg.theta0 * ph.buoyant * H0, u_t=ph.u_t,
                    tau=refs.settling_relaxation_time(cfg.theta0, ph),
                    U_mf=bed_expansion.minimum_fluidization_velocity(cfg.theta0, ph), theta_wallis=theta,
