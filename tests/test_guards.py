@@ -134,10 +134,10 @@ def test_theta_range_stops_a_run():
 def test_check_report_by_hand(paper_cfg):
     """check_report on five particles written here: each check's worst particle in CHECKS order as
     the particles are made worse one check at a time; the kinetic energy and mass of the fluid only."""
-    from parsph.simulation.guards import N_FASTEST, N_REPORT, check_report, limits_of
+    from parsph.simulation.guards import N_FASTEST, N_REPORT, check_report, bounds_of
     from parsph.sph.particles import WALL
     cfg = paper_cfg()
-    lim = limits_of(cfg, 4.0)
+    lim = bounds_of(cfg, 4.0)
     assert lim.ke_bound == pytest.approx(0.5 * 4.0 * cfg.V_w ** 2, rel=1e-15)
     assert lim.theta_tol == pytest.approx(cfg.get("checks.theta_change") * cfg.theta0, rel=1e-15)
     kind = np.array([GRAIN, GRAIN, GRAIN, WALL, GRAIN])

@@ -252,8 +252,8 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
 
     ``control`` (one record of :data:`CONTROL`) holds the clock (t, dt, step) and the exchanges with
     Python (the target time, the step to stop at, stop and forced-rebuild flags in, a stop out, whether
-    to evaluate the rates of the state first, the last step checked); ``lim`` the checks' limits
-    (guards.Limits); ``midpoint`` .. ``drag_limit`` the fields of :class:`Modes`; ``timers`` gets the
+    to evaluate the rates of the state first, the last step checked); ``lim`` the checks' bounds
+    (guards.Bounds); ``midpoint`` .. ``drag_limit`` the fields of :class:`Modes`; ``timers`` gets the
     phases' seconds; ``scratch`` (N_SCRATCH float64) the all-reduces' buffers, by the named slices above;
     ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
     """

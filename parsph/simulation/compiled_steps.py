@@ -18,11 +18,11 @@ BLOCK_SECONDS = 0.1  # a compiled block's length: the stop signal is polled (and
 
 class CompiledSteps:
     """Runs blocks on the parts it is given: the particles, the slab ring, the list, the passes, the
-    integrator and the run-time checks' limits; adds its phase seconds into ``timers``."""
+    integrator and the run-time checks' bounds; adds its phase seconds into ``timers``."""
 
-    def __init__(self, cfg, ps, ring, neighbours, rates, integrator, limits_, skin, timers):
+    def __init__(self, cfg, ps, ring, neighbours, rates, integrator, bounds, skin, timers):
         self.cfg, self.ps, self.ring, self.neighbours, self.rates = cfg, ps, ring, neighbours, rates
-        self.integrator, self.limits, self.timers = integrator, limits_, timers
+        self.integrator, self.bounds, self.timers = integrator, bounds, timers
         self.control = np.zeros(1, block.CONTROL)  # the block's clock and its exchanges with Python
         self.scratch = np.zeros(block.N_SCRATCH)
         self._timers = np.zeros(len(block.TIMER_PHASES))
@@ -53,7 +53,7 @@ class CompiledSteps:
             self._modes = modes
             self._args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), Motion(*integ.motion(ps)),
                           N.cells, N.local, N.box, N.work, R.consts, R.switches,
-                          R.gather_arrays() if threaded else self._no_gather, self.rule, self.limits, *modes,
+                          R.gather_arrays() if threaded else self._no_gather, self.rule, self.bounds, *modes,
                           self.control, self._timers, self.scratch, self._req, self._stat)
             self._fn = None
         if self._fn is None:

@@ -33,8 +33,8 @@ CRITERION_OF = {1: "nonfinite", 2: "wall", 3: "theta", 4: "energy", 5: "jump"}
 N_REPORT, N_FASTEST = 6, 3  # check_report's rows: (code, severity, place, x, y, value), (|v|^2, place, fluid mass)
 
 
-class Limits(NamedTuple):
-    """The checks' thresholds, as :func:`check_report` and the compiled blocks take them."""
+class Bounds(NamedTuple):
+    """The checks' thresholds (not the time step's limits, :mod:`parsph.physics.limits`), as :func:`check_report` and the compiled blocks take them."""
     every: int          # checks.every: the steps between two checks
     walls: bool         # plates at x = 0 and x = L (check 2)
     L: float
@@ -54,10 +54,10 @@ def energy_bound(cfg, fluid_mass):
     return cfg.scene.max_kinetic_energy(cfg, fluid_mass)
 
 
-def limits_of(cfg, fluid_mass):
-    """The Limits of a run whose fluid (over all ranks) has mass ``fluid_mass``."""
+def bounds_of(cfg, fluid_mass):
+    """The Bounds of a run whose fluid (over all ranks) has mass ``fluid_mass``."""
     bound = energy_bound(cfg, fluid_mass) if cfg.get("checks.energy") else math.inf
-    return Limits(int(cfg.get("checks.every")), bool(cfg.scene.walls), float(cfg.L), float(cfg.theta0),
+    return Bounds(int(cfg.get("checks.every")), bool(cfg.scene.walls), float(cfg.L), float(cfg.theta0),
                   float(cfg.get("checks.theta_change") * cfg.theta0), float(cfg.h), float(bound))
 
 
@@ -174,7 +174,7 @@ def read(fields, cfg, theta_ref=None, acc=None):
 def run_checks(collect, ps, cfg, step, t, lim):
     """Collective run-time checks of the owned particles; raises GuardError on every rank on failure.
 
-    ``collect``: the solver's :class:`parsph.parallel.collectives.Collectives`; ``lim``: the run's Limits."""
+    ``collect``: the solver's :class:`parsph.parallel.collectives.Collectives`; ``lim``: the run's Bounds."""
     n = ps.n_own
     report, fastest = np.zeros(N_REPORT), np.zeros(N_FASTEST)
     ke = check_report(ps.pos, ps.vel, ps.acc, ps.theta, ps.jump, ps.kind, ps.mass, n, lim, report, fastest)

@@ -37,7 +37,7 @@ from . import block, start
 from .compiled_steps import CompiledSteps, native_route
 from .frames import Frames
 from .gas_stage import GasStage
-from .guards import limits_of, run_checks
+from .guards import bounds_of, run_checks
 from .integrator import Integrator
 from .list_keeper import ListKeeper
 from .timeline import Ticker, Timeline
@@ -83,9 +83,9 @@ class Simulation:
         self.rates = Rates(*start.pass_groups(cfg, self.kernel, start.the_one_mass(self.collect, ps)))
         self.n_total = self.collect.total(ps.n_own)
         fluid = ps.kind[:ps.n_own] == GRAIN
-        self.limits = limits_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
+        self.bounds = bounds_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
         self.frames = Frames(cfg, self.grid, self.collect)
-        self.blocks = CompiledSteps(cfg, ps, self.ring, self.neighbours, self.rates, self.integrator, self.limits,
+        self.blocks = CompiledSteps(cfg, ps, self.ring, self.neighbours, self.rates, self.integrator, self.bounds,
                                     self.skin, self.timers)
         self.stop = 0            # a stop signal agreed by every rank
         self._checked = -1       # the last step whose checks a compiled block ran
@@ -207,7 +207,7 @@ class Simulation:
         """Collective run-time checks (:mod:`parsph.simulation.guards`); on failure every rank raises GuardError."""
         t0 = self.clock()
         try:
-            run_checks(self.collect, self.ps, self.cfg, self.step, self.t, self.limits)
+            run_checks(self.collect, self.ps, self.cfg, self.step, self.t, self.bounds)
         finally:
             self.timers["checks"] += self.clock() - t0
 
@@ -246,7 +246,7 @@ class Simulation:
             done = timeline.at_end()
             if observe is not None:
                 observe(self)
-            if done or (self.step % self.limits.every == 0 and self._checked != self.step):
+            if done or (self.step % self.bounds.every == 0 and self._checked != self.step):
                 self.check()
             if done or (last_step is not None and self.step >= last_step):
                 break
