@@ -84,3 +84,12 @@ def test_a_bed_below_minimum_fluidisation_rests_on_its_packing_limit():
     assert r["U"] < 0.5 * r["U_mf"]
     assert r["errors"][-1] < 0.02, r["errors"]
     assert abs(r["tops"][-1] - r["top_ref"]) < 2 * 2.5e-4, (r["tops"], r["top_ref"])
+
+
+def test_the_banner_names_the_packing_limit_and_its_pressure_at_theta0():
+    from parsph.setup.scenes import layer
+    cfg = config.load(layers.BED_AIR, ["material.theta_max=0.64"])
+    head = layer.describe(cfg)[0]
+    p_f = f"{johnson_jackson(0.6):.4g}"
+    assert "packing limit theta_max = 0.64 from theta_min = 0.5" in head and f"p_f = {p_f} Pa" in head, head
+    assert "packing limit" not in layer.describe(config.load(layers.BED_AIR))[0]

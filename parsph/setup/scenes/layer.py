@@ -25,7 +25,7 @@ import math
 
 
 from parsph.errors import ConfigError
-from parsph.physics import bed_expansion, consolidation, gas_references as refs, kynch, limits, voidage_waves
+from parsph.physics import bed_expansion, closures, consolidation, gas_references as refs, kynch, limits, voidage_waves
 from parsph.sph.particles import GRAIN
 from . import lattice
 
@@ -206,6 +206,12 @@ def describe(cfg):
     packed = (f" (past random close packing, {RANDOM_CLOSE_PACKING:g}: outside the physical range)"
               if n.packed_past else "")
     head = f"  layer: theta0 = {n.theta0:.4g}{packed}, H0 = {n.H0:.4g} m"
+    if cfg.packing:
+        lo, hi = cfg.packing
+        p_f = closures.packing_pressure(cfg.theta0, lo, hi)[0]
+        p_G = limits.pressure(cfg.theta0, cfg.G_a, cfg.G_b, "consistent")
+        head += (f", packing limit theta_max = {hi:g} from theta_min = {lo:g} (at theta0 the frictional "
+                 f"p_f = {p_f:.4g} Pa, G's p = {p_G:.4g} Pa)")
     if cfg.gas is None:
         return [f"{head}; no gas: it falls under gravity alone"]
     ratio = f"{n.U / n.U_mf:.4g}" if n.U_mf > 0 else "inf"
