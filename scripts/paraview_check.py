@@ -9,8 +9,9 @@ cells ParaView builds (one cell per point: without cells the render view stays
 empty), the point arrays it reads (components and range), and checks that id,
 kind, theta, vx, vy (vz in 3-D) and the 3-component ``velocity`` vector (the
 active vectors, for glyphs) are there, and that the Glyph filter accepts
-``velocity`` as its orientation. For the last step it bins the fluid points in
-x as parsph's profile does (bins of L / Nx; Eq. (8)'s reference and the scale
+``velocity`` as its orientation; for a layer, drawn upright, that ``velocity``
+is (vy, vx, .) in ParaView's frame. For the last step it bins the fluid points in
+x (ParaView's Y for a layer) as parsph's profile does (bins of L / Nx; Eq. (8)'s reference and the scale
 come with the step's ``parsph.profile`` Information element) and prints the max
 and RMS error of the scene's error field computed from ParaView's arrays,
 beside the error parsph recorded. ``--screenshot FILE.png`` renders the last
@@ -48,7 +49,7 @@ def steps_of(xdmf):
         if grid.get("GridType") != "Uniform":
             continue
         info = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
-        dim = 2 if grid.find("Geometry").get("GeometryType") == "XY" else 3
+        dim = 2 if grid.find("Geometry").get("GeometryType") in ("XY", "X_Y") else 3
         out.append((float(grid.find("Time").get("Value")), dim, json.loads(info["parsph.profile"])))
     return sorted(out, key=lambda s: s[0])
 
@@ -114,9 +115,10 @@ def glyph_points(reader, t):
 
 
 def profile_error(points, arrays, prof):
-    """(max, rms) of |mean field per x bin - reference| / scale over the fluid points (kind 0)."""
+    """(max, rms) of |mean field per x bin - reference| / scale over the fluid points (kind 0); x is
+    ParaView's axis ``prof["axis"]`` (Y for a layer, drawn upright)."""
     fluid = arrays["kind"] == 0
-    x = points[fluid, 0]
+    x = points[fluid, prof.get("axis", 0)]
     f = arrays[prof["field"]][fluid]
     nb = prof["bins"]
     b = np.clip(np.trunc(x / (prof["L"] / nb)).astype(np.int64), 0, nb - 1)
@@ -128,6 +130,10 @@ def profile_error(points, arrays, prof):
     if e.size == 0:
         return float("nan"), float("nan")
     return float(e.max()), float(np.sqrt(np.mean(e * e)))
+
+
+def prof_of(steps, t):
+    return next(p for s, _, p in steps if s == t)
 
 
 def main(argv):
@@ -162,6 +168,12 @@ def main(argv):
             ok = False
             print(f"  missing: {', '.join(missing) or 'none'}; velocity is the active 3-component vector: "
                   f"{not bad_vector and vectors == 'velocity'}")
+        elif prof_of(steps, t).get("axis", 0) == 1:  # upright: ParaView's frame is the file's (y, x, z)
+            v = arrays["velocity"]
+            turned = (np.array_equal(v[:, 0], arrays["vy"].astype(v.dtype))
+                      and np.array_equal(v[:, 1], arrays["vx"].astype(v.dtype)))
+            print(f"  upright (the height along Y): velocity = (vy, vx, .) on every point: {turned}")
+            ok = ok and turned
     if steps:
         t, _, prof = steps[-1]
         glyphs = glyph_points(reader, t)

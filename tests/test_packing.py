@@ -51,7 +51,7 @@ def test_mirror_theta_has_the_extrapolated_total_pressure(theta, rise):
     """p(theta_w) = p(theta_i) + rho_s theta_i rise with p = G / (G_a ln 10) + p_f, over six decades."""
     def p(t):
         return closures.modulus(t, G_A, G_B) / (G_A * math.log(10.0)) + closures.packing_pressure(t, LO, HI)[0]
-    th_w = walls.mirror_theta(theta, rise, G_A, G_B, RHO_S, ON, LO, HI)
+    th_w = walls.mirror_theta(theta, rise, G_A, G_B, RHO_S, ON, ON, LO, HI)
     assert th_w >= theta
     assert p(th_w) == pytest.approx(p(theta) + RHO_S * theta * rise, rel=1e-9)
 

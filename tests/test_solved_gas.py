@@ -5,7 +5,8 @@
   flux through the inclusion within 2% of 2 kappa U / (1 + kappa) for kappa = 1e3 and 0.1 with a on 16 cells,
   first order over three grids;
 - the solve's finite volumes against independent forms: layers in series (p' at the floor = U times the sum
-  of the resistances), no divergence on a random field, the banded Cholesky against SuperLU;
+  of the resistances), no divergence on a random field, the banded Cholesky (or, past BAND_MAX, SuperLU
+  ordered by minimum degree) against SuperLU in its default order;
 - the deposit: the particles' volume conserved, the same bits in any particle order, the interpolation the
   deposit's transpose (the same weights both ways), a linear field interpolated exactly;
 - K = eps^2 / beta against Stokes's closed form d^2 eps^4.65 / (18 mu theta), and its cap;
@@ -132,19 +133,21 @@ def test_moving_layers_in_series_carry_the_pressure_drop_of_their_drag():
     assert floor == pytest.approx(drop.sum(), rel=1e-11)
 
 
-@pytest.mark.parametrize("nx, ny", [(12, 7), (5, 30)])  # the band along y first; along x with the y ring folded
+# the band along y first; along x with the y ring folded; a band too wide (128 > BAND_MAX): SuperLU, minimum degree
+@pytest.mark.parametrize("nx, ny", [(12, 7), (5, 30), (64, 128)])
 def test_random_fields_have_no_divergence_and_two_solvers_agree(nx, ny):
     rng = np.random.default_rng(11)
     hx, hy = 0.1, 0.15
     K = rng.uniform(0.01, 10.0, (nx, ny))
     V = rng.normal(size=(nx, ny, 2))
     sides = (darcy.Side("flux", rng.uniform(0, 1, ny)), darcy.Side("pressure", 0.0))
-    sol = darcy.solve(K, V, hx, hy, sides, None)  # banded Cholesky
-    assert darcy.Darcy(nx, ny, hx, hy, sides, None).width == min(ny, 2 * nx)
+    sol = darcy.solve(K, V, hx, hy, sides, None)  # banded Cholesky, or SuperLU ordered by minimum degree
+    d = darcy.Darcy(nx, ny, hx, hy, sides, None)
+    assert d.width == min(ny, 2 * nx) and d.banded == (d.width <= darcy.BAND_MAX) and d.ordered == (not d.banded)
     div = (sol.jx[1:] - sol.jx[:-1]) / hx + (sol.jy[:, 1:] - sol.jy[:, :-1]) / hy
     assert np.abs(div).max() < 1e-11 * np.abs(V).max() / hx
     lu = darcy.Darcy(nx, ny, hx, hy, sides, None)
-    lu.banded = False  # the same matrix through SuperLU
+    lu.banded = lu.ordered = False  # the same matrix through SuperLU, its default column order
     other = lu.solve(K, V)
     assert np.allclose(sol.p, other.p, rtol=1e-10, atol=1e-12 * np.abs(sol.p).max())
 
@@ -461,7 +464,8 @@ def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
         assert g["p"].shape == theta.shape and g["j"].shape == g["u_g"].shape == theta.shape + (2,)
         assert "start/warm" in g and g.attrs["start_solved_at"] >= 0
         nx, ny = theta.shape
-    # the ParaView sidecar: a "gas grid" collection, one structured grid an output, its nodes (i h_x, j h_y)
+    # the ParaView sidecar: a "gas grid" collection, one structured grid an output, its nodes (i h_x, j h_y) as
+    # ParaView places them: a bed upright, (j h_y, i h_x), as its particles (test_xdmf)
     import xml.etree.ElementTree as ET
     dom = ET.parse(tmp_path / "bed.xdmf").getroot().find("Domain")
     gas = [g for g in dom.findall("Grid") if g.get("Name") == "gas grid"]
@@ -470,7 +474,7 @@ def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
     assert topo.get("TopologyType") == "2DSMesh" and topo.get("Dimensions") == f"{nx + 1} {ny + 1}"
     with h5py.File(tmp_path / "bed.cells.h5", "r") as f:
         nodes = f["grid_nodes"][()].reshape(nx + 1, ny + 1, 2)
-    assert np.allclose(nodes[:, 0, 0], np.arange(nx + 1) * hx) and np.allclose(nodes[0, :, 1], np.arange(ny + 1) * hy)
+    assert np.allclose(nodes[:, 0, 1], np.arange(nx + 1) * hx) and np.allclose(nodes[0, :, 0], np.arange(ny + 1) * hy)
 
 
 def test_plot_grid_draws_each_output_and_animates_them(tmp_path):

@@ -29,7 +29,7 @@ def pressure(theta, consistent):
 @pytest.mark.parametrize("rise", [0.0, 1e-4, 1e-2, 3.0])
 def test_mirror_theta_has_the_extrapolated_pressure(consistent, theta, rise):
     """p(theta_w) = p(theta_i) + rho_s theta_i rise for both pressure forms, over five decades of p_w / p_i."""
-    th_w = walls.mirror_theta(theta, rise, G_A, G_B, RHO_S, ON if consistent else OFF, 0.0, 0.0)
+    th_w = walls.mirror_theta(theta, rise, G_A, G_B, RHO_S, ON if consistent else OFF, OFF, 0.0, 0.0)
     want = pressure(theta, consistent) + RHO_S * theta * rise
     assert th_w >= theta
     assert pressure(th_w, consistent) == pytest.approx(want, rel=1e-9)

@@ -16,6 +16,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+UPRIGHT = (1, 0, 2)  # a layer's columns along ParaView's X, Y, Z: written out here, not imported
+
 NUMBER_TYPES = {("f", 8): "Float", ("f", 4): "Float", ("i", 8): "Int", ("i", 4): "Int", ("i", 1): "Char",
                 ("u", 1): "UChar"}
 
@@ -65,7 +67,21 @@ def check_sidecar(xdmf, files, n, dim):
             assert items[0].get("NumberType") == NUMBER_TYPES[(conn.dtype.kind, conn.dtype.itemsize)]
             assert int(items[0].get("Precision")) == conn.dtype.itemsize
             assert np.array_equal(conn, np.arange(n)), "cell k must be the particle of row k"
-            assert g.find("Geometry").get("GeometryType") == ("XY" if dim == 2 else "XYZ")
+            # a layer (H0 among the root attributes) opens upright: ParaView's X, Y(, Z) = the file's y, x(, z)
+            upright = "H0" in f.attrs
+            geometry = g.find("Geometry")
+            if upright:
+                assert geometry.get("GeometryType") == ("X_Y" if dim == 2 else "X_Y_Z")
+                items = geometry.findall("DataItem")
+                assert len(items) == dim
+                position = f["particles/position"][()]
+                for k, item in enumerate(items):
+                    ref, path, (start, stride, count, space) = parse_item(item)
+                    assert ref == fname and path == "/particles/position" and space == position.shape
+                    assert start == (0, UPRIGHT[k]) and stride == (1, 1) and count == (n, 1)
+                    assert item.get("Dimensions") == str(n)
+            else:
+                assert geometry.get("GeometryType") == ("XY" if dim == 2 else "XYZ")
             # the profile Information: what a script needs to recompute parsph's error from the points
             info = [i for i in g.findall("Information") if i.get("Name") == "parsph.profile"]
             assert len(info) == 1 and info[0].text is None  # Xdmf3 aborts on an Information without Value
@@ -82,7 +98,7 @@ def check_sidecar(xdmf, files, n, dim):
             assert set(attrs) == {"id", "kind", "theta", "velocity", *comps}, sorted(attrs)
             velocity = f["particles/velocity"][()]
             assert velocity.shape == (n, dim)
-            holders = [("geometry", g.find("Geometry"))] + list(attrs.items())
+            holders = ([] if upright else [("geometry", geometry)]) + list(attrs.items())
             for name, holder in holders:
                 items = holder.findall("DataItem")
                 assert len(items) == 1, name
@@ -113,13 +129,15 @@ def check_sidecar(xdmf, files, n, dim):
                     assert np.array_equal(data, velocity[:, comps.index(name)]), name
                 elif name == "velocity":
                     assert data.shape == (n, 3)
-                    if dim == 3:
+                    if dim == 3 and not upright:
                         assert path == "/particles/velocity"
                         assert np.array_equal(data, velocity)
-                    else:  # a float32 copy padded with v_z = 0: glyphs need 3 components
+                    else:  # a float32 copy in ParaView's frame, padded with 0: glyphs need 3 components
                         assert path == "/particles/velocity_xyz" and data.dtype == np.float32
-                        assert np.array_equal(data[:, :2], velocity.astype(np.float32))
-                        assert np.all(data[:, 2] == 0)
+                        cols = UPRIGHT if upright else (0, 1, 2)
+                        for k, c in enumerate(cols):
+                            want = velocity[:, c].astype(np.float32) if c < dim else 0.0
+                            assert np.all(data[:, k] == want), (name, k)
                 else:
                     assert path == f"/particles/{name}" and data.shape == (n,), name
     return grids

@@ -12,8 +12,10 @@ flux (:class:`Darcy`'s ``mean_flux``). The matrix is symmetric positive
 definite (semi-definite where no side has a given pressure: then p' is pinned to 0 in the first cell, as its
 constant is free). The solves are a well-kept library's: where x has sides the cells are ordered so that
 the matrix is a narrow band (:func:`band_order`: half-width ny, or 2 nx with a periodic y folded) and LAPACK's banded Cholesky
-(scipy.linalg.cholesky_banded) factorises it, 2-3x faster than SuperLU on the grids of a bed; else scipy's
-sparse LU (SuperLU).
+(scipy.linalg.cholesky_banded) factorises it, 2-3x faster than SuperLU on the grids of a bed up to a
+half-width of :data:`BAND_MAX`; past it, and where x is periodic, scipy's sparse LU (SuperLU), ordered by
+minimum degree on A + A^T where the band was too wide (2.4x faster than the band on 80 x 160 cells,
+half-width 160: 23 against 57 ms; 3x on 160 x 320).
 
 A factorisation costs 20 times its use (5.4 ms against 0.29 on 37 x 112 cells), and K changes little from
 one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
@@ -42,6 +44,9 @@ RTOL = 1e-10       # the preconditioned solve's end: max |residual| <= RTOL max 
 # against 1.3 ms for the factorisation); a bed at rest converges in 3-5
 MAX_ITER = 6
 REFRESH_ITER = 4   # a solve that needed more makes the next one factorise
+# the widest band factorised as a band: at half-width 120 (80 x 120 cells) the band and SuperLU each take 32 ms;
+# the band's cost grows as n w^2, SuperLU's with minimum degree about as n^1.5 (docs/performance.md)
+BAND_MAX = 120
 KINDS = {"flux": FLUX, "pressure": PRESSURE}
 
 
@@ -268,7 +273,8 @@ class Darcy:
         self.upper = cols_of >= rows_of
         self.band_at = (w + rows_of[self.upper] - cols_of[self.upper], cols_of[self.upper])
         self.width = w
-        self.banded = x_sides is not None
+        self.banded = x_sides is not None and w <= BAND_MAX
+        self.ordered = x_sides is not None and not self.banded  # SuperLU with minimum degree on A + A^T
         self.rhs = np.zeros(nx * ny)
         self.unit_rhs = np.zeros(nx * ny)
         self.unit_data = np.zeros_like(self.data)
@@ -316,8 +322,11 @@ class Darcy:
                 return x
             self._factor = factor
         else:
-            self._factor = spla.splu(sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr),
-                                                                 shape=(n, n)))).solve
+            A = sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr), shape=(n, n)))
+            if self.ordered:
+                self._factor = spla.splu(A, permc_spec="MMD_AT_PLUS_A", options={"SymmetricMode": True}).solve
+            else:
+                self._factor = spla.splu(A).solve
         self.factor_K = K.copy()
         self.factorisations += 1
 

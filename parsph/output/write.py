@@ -17,7 +17,7 @@ from .files import output_files
 from .hdf5 import SERIAL_ENV, collective_dxpl, durable_rename, parallel_hdf5_available, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS, PROFILE_OPTIONAL,
                      PROFILE_UNITS, UNITS)
-from .xdmf import entry_from_file, snapshot_entry, write_xdmf
+from .xdmf import UPRIGHT, entry_from_file, snapshot_entry, write_xdmf
 
 
 @dataclass
@@ -132,7 +132,7 @@ class Output:
         if frame.grid is not None and "theta" in frame.grid:
             grid = (*frame.grid["theta"].shape, *frame.grid["attrs"]["cell"])
         self.written.append(snapshot_entry(name, frame.t, bool(snapshot), self.N, cfg.dim, field, scale, cfg.L,
-                                           prof[field + "_exact"], emax, erms, grid))
+                                           prof[field + "_exact"], emax, erms, grid, upright="H0" in self.scales))
         if self.root:
             write_xdmf(os.path.join(self.dir, self.stem + ".xdmf"), self.written)
         self.index += 1
@@ -190,9 +190,13 @@ class Output:
 
         for key in PARTICLE_FIELDS:
             yield "particles", key, ordered(fields[key]).astype(FILE_DTYPES[key], copy=False)
-        if self.cfg.dim == 2:
+        upright = "H0" in self.scales  # a layer: ParaView draws it with the height along Y (xdmf.UPRIGHT)
+        if self.cfg.dim == 2 or upright:  # the display copy ParaView's glyphs need, in ParaView's frame
+            vel = ordered(fields["velocity"])
             v = np.zeros((n, 3), np.float32)
-            v[:, :2] = ordered(fields["velocity"])
+            for k, c in enumerate(UPRIGHT if upright else (0, 1, 2)):
+                if c < vel.shape[1]:
+                    v[:, k] = vel[:, c]
             yield "particles", "velocity_xyz", v
         if "position_raw" in fields:  # the solver's exact state: what a restart continues from
             yield "restart", "position", ordered(fields["position_raw"]).astype(np.float64, copy=False)

@@ -14,6 +14,13 @@ its cells with theta and p' as cell data. Its topology is a structured mesh (2DS
 (x_i, y_j) = (i h_x, j h_y), are written once in ``<name>.cells.h5:/grid_nodes``: the arrays are (n_x,
 n_y) with x the slow index, and the explicit nodes put x along ParaView's X as the particles have it, so
 that the cells lie under the particles.
+
+A layer or bed (gravity along -x: the outputs carry ``H0``) opens upright: ParaView's X is the file's y and
+its Y the file's x (the height), for the particles (Geometry X_Y from the position's columns), their
+``velocity`` vector (the files' display copy ``velocity_xyz``, written in that frame: (v_y, v_x, v_z)) and the
+gas grid's nodes alike. That swap
+mirrors the periodic width, which changes nothing; the arrays keep the files' meaning (``vx`` is still the
+velocity along the height) and the files keep their coordinates.
 """
 import json
 import os
@@ -25,14 +32,17 @@ import numpy as np
 from .layout import FILE_DTYPES
 
 
-def snapshot_entry(name, time, snapshot, n, dim, field, scale, L, exact, err_max, err_rms, grid=None):
+def snapshot_entry(name, time, snapshot, n, dim, field, scale, L, exact, err_max, err_rms, grid=None,
+                   upright=False):
     """What the sidecar says of one output file (a dict; ``profile`` travels as an Information
-    element so that scripts can compare ParaView's view of the particles with parsph's profile;
-    ``grid``: (n_x, n_y, h_x, h_y) of the gas grid the file holds, or None)."""
+    element so that scripts can compare ParaView's view of the particles with parsph's profile, its
+    ``axis`` the ParaView axis of the file's x; ``grid``: (n_x, n_y, h_x, h_y) of the gas grid the file
+    holds, or None; ``upright``: a layer, drawn with its height along ParaView's Y)."""
     return {"name": name, "time": float(time), "snapshot": bool(snapshot), "n": int(n), "dim": int(dim),
+            "upright": bool(upright),
             "profile": {"field": str(field), "scale": float(scale), "L": float(L), "bins": len(exact),
                         "exact": [float(v) for v in exact], "err_max": float(err_max),
-                        "err_rms": float(err_rms)},
+                        "err_rms": float(err_rms), "axis": 1 if upright else 0},
             "grid": None if grid is None else [int(grid[0]), int(grid[1]), float(grid[2]), float(grid[3])]}
 
 
@@ -46,10 +56,11 @@ def entry_from_file(f, name):
         grid = (*f["grid/theta"].shape, *f["grid"].attrs["cell"])
     return snapshot_entry(name, a["time"], "particles" in f, a["n_particles"], a["dim"], field,
                           a["error_scale"] if "error_scale" in a else a["V_w"], a["L"], g[field + "_exact"][()],
-                          g.attrs["err_max"], g.attrs["err_rms"], grid)
+                          g.attrs["err_max"], g.attrs["err_rms"], grid, upright="H0" in a)
 
 
 NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
+UPRIGHT = (1, 0, 2)  # the file's columns along ParaView's X, Y, Z for a layer (its height x along Y)
 
 
 def _data_item(parent, fname, path, shape, dtype, column=None):
@@ -119,17 +130,23 @@ def xdmf_grid(entry, cells=None, ncells=None):
         item = _data_item(topo, cells, CELLS_DATASET, (n,), cells_dtype(ncells))
         if ncells != n:  # the first n rows of a longer connectivity
             item.text += f"|0:1:{n}:{ncells}"
-    geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
-    _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"])
+    upright = entry.get("upright", False)
+    if upright:  # ParaView's X, Y(, Z) = the file's y, x(, z): the height up
+        geom = ET.SubElement(grid, "Geometry", GeometryType="X_Y" if dim == 2 else "X_Y_Z")
+        for c in UPRIGHT[:dim]:
+            _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"], column=c)
+    else:
+        geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
+        _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"])
 
     def attribute(name, kind="Scalar"):
         return ET.SubElement(grid, "Attribute", Name=name, AttributeType=kind, Center="Node")
 
     for key in ("id", "kind", "theta"):
         _data_item(attribute(key), fname, f"/particles/{key}", (n,), FILE_DTYPES[key])
-    if dim == 3:
+    if dim == 3 and not upright:
         _data_item(attribute("velocity", "Vector"), fname, "/particles/velocity", (n, 3), np.float64)
-    else:
+    else:  # the files' display copy, in ParaView's frame ((v_y, v_x, v_z) for a layer)
         _data_item(attribute("velocity", "Vector"), fname, "/particles/velocity_xyz", (n, 3), np.float32)
     for c in range(dim):
         _data_item(attribute("v" + "xyz"[c]), fname, "/particles/velocity", (n, dim), np.float64, column=c)
@@ -139,11 +156,11 @@ def xdmf_grid(entry, cells=None, ncells=None):
 GRID_NODES = "/grid_nodes"
 
 
-def write_grid_nodes(path, nx, ny, hx, hy):
-    """``path``:/grid_nodes = the (n_x + 1)(n_y + 1) nodes (x_i, y_j) of the gas grid, x slow (the file made
-    or extended beside the connectivity)."""
+def write_grid_nodes(path, nx, ny, hx, hy, upright=False):
+    """``path``:/grid_nodes = the (n_x + 1)(n_y + 1) nodes (x_i, y_j) of the gas grid, x slow, as ParaView
+    places them ((y_j, x_i) ``upright``) (the file made or extended beside the connectivity)."""
     x, y = np.meshgrid(np.arange(nx + 1) * hx, np.arange(ny + 1) * hy, indexing="ij")
-    nodes = np.stack([x.ravel(), y.ravel()], axis=1)
+    nodes = np.stack([y.ravel(), x.ravel()] if upright else [x.ravel(), y.ravel()], axis=1)
     with h5py.File(path, "a") as f:
         if GRID_NODES in f:
             if f[GRID_NODES].shape == nodes.shape and np.array_equal(f[GRID_NODES][()], nodes):
@@ -183,7 +200,8 @@ def write_xdmf(path, entries):
             series.append(xdmf_grid(entry, cells, ncells))
     gridded = [e for e in sorted(entries, key=lambda e: e["time"]) if e.get("grid")]
     if gridded:
-        write_grid_nodes(os.path.join(os.path.dirname(path), cells), *gridded[-1]["grid"])
+        write_grid_nodes(os.path.join(os.path.dirname(path), cells), *gridded[-1]["grid"],
+                         upright=gridded[-1].get("upright", False))
         gas = ET.SubElement(root.find("Domain"), "Grid", Name="gas grid", GridType="Collection",
                             CollectionType="Temporal")
         for entry in gridded:

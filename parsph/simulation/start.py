@@ -90,7 +90,8 @@ def pass_groups(cfg, kernel, mass):
     switches = pass_data.Switches(sw(cfg.pressure), sw(cfg.viscosity),
                                   sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(cfg.scene.walls),
                                   sw(cfg.get("numerics.pressure_form") == "consistent"), sw(cfg.dim == 3),
-                                  sw(mass > 0.0), sw(cfg.gas is not None), sw(cfg.scene.free_surface))
+                                  sw(mass > 0.0), sw(cfg.gas is not None), sw(cfg.scene.free_surface),
+                                  sw(bool(cfg.packing)))
     return consts, switches
 
 

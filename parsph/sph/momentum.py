@@ -41,26 +41,27 @@ DRAG_CHUNK = 512  # particles per parallel chunk of the drag's rates (threaded m
 
 # ---- the rows the pair loops read ------------------------------------------------------------------
 @njit(cache=True, inline="always")
-def pressure_factor(th, rho_i, G_a, G_b, consistent, theta_min, theta_max):
+def pressure_factor(th, rho_i, G_a, G_b, consistent, packing, theta_min, theta_max):
     """The per-particle factor of the pressure term at theta = rho_bar / rho_s.
 
     10^(G_a theta / 2) for the paper's form (G at the pair mean is
     10^G_b press_i press_j) and p(theta) / rho_bar^2 for the consistent form,
     with p = G(theta) / (G_a ln 10) so that grad p = G grad theta exactly
-    (``theta_max`` > 0, a packing limit: plus the frictional p_f of :func:`.closures.packing_pressure`; a
-    branch at run time, not a compiled switch: no loop is compiled twice for it).
+    (``packing`` on: plus the frictional p_f of :func:`.closures.packing_pressure`; a compiled switch, so that
+    the loops of a run without it hold none of its code: a branch at run time made every loop's compile 25%
+    longer).
     """
     if len(consistent):
         p = modulus_unchecked(th, G_a, G_b) / (G_a * math.log(10.0))
-        if theta_max > 0.0:
+        if len(packing):
             p += packing_pressure(th, theta_min, theta_max)[0]
         return p / (rho_i * rho_i)
     return half_modulus(th, G_a)
 
 
 @njit(cache=True, inline="always")
-def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, theta_min, theta_max,
-                 vel, theta, fields):
+def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, packing, theta_min,
+                 theta_max, vel, theta, fields):
     """rho, theta and the pair loops' row of particle k."""
     if k < owned_stop and kind[k] == GRAIN:
         rho[k] = rho_sum[k]
@@ -73,16 +74,16 @@ def _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, c
     fields[k, INV_RHO] = 1.0 / r
     fields[k, INV_THETA] = 1.0 / th
     if len(pressure):
-        fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent, theta_min, theta_max)
+        fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent, packing, theta_min, theta_max)
 
 
 @njit(cache=True, parallel=True)
-def _particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, theta_min,
-                      theta_max, vel, theta, fields):
+def _particle_factors(rho, rho_sum, kind, start, stop, owned_stop, rho_s, G_a, G_b, pressure, consistent, packing,
+                      theta_min, theta_max, vel, theta, fields):
     """:func:`particle_factors` on plain arguments (see :func:`parsph.sph.density._density_threaded`)."""
     for k in prange(start, stop):
-        _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, theta_min, theta_max,
-                     vel, theta, fields)
+        _factors_one(k, rho, rho_sum, kind, owned_stop, rho_s, G_a, G_b, pressure, consistent, packing, theta_min,
+                     theta_max, vel, theta, fields)
 
 
 @njit(cache=True)
@@ -94,7 +95,8 @@ def particle_factors(lst, parts, c, sw, start, stop):
     of its neighbour. Owned wall particles and halo copies keep their rho.
     """
     _particle_factors(parts.rho, lst.rho_sum, parts.kind, start, stop, parts.n_own, c.rho_s, c.G_a, c.G_b,
-                      sw.pressure, sw.consistent, c.theta_min, c.theta_max, parts.vel, parts.theta, lst.fields)
+                      sw.pressure, sw.consistent, sw.packing, c.theta_min, c.theta_max, parts.vel, parts.theta,
+                      lst.fields)
 
 
 @njit(cache=True)
@@ -105,7 +107,7 @@ def particle_factors_serial(lst, parts, c, sw, start, stop):
     unsigned indices (no test for a negative one): 25% faster."""
     rho, rho_sum, kind, vel, theta, fields = parts.rho, lst.rho_sum, parts.kind, parts.vel, parts.theta, lst.fields
     owned_stop, rho_s, G_a, G_b, pressure, consistent = parts.n_own, c.rho_s, c.G_a, c.G_b, sw.pressure, sw.consistent
-    theta_min, theta_max = c.theta_min, c.theta_max
+    packing, theta_min, theta_max = sw.packing, c.theta_min, c.theta_max
     dim = vel.shape[1]
     own = uintp(owned_stop)
     for k in range(uintp(start), uintp(max(start, stop))):
@@ -120,7 +122,7 @@ def particle_factors_serial(lst, parts, c, sw, start, stop):
         fields[k, INV_RHO] = 1.0 / r
         fields[k, INV_THETA] = 1.0 / th
         if len(pressure):
-            fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent, theta_min, theta_max)
+            fields[k, PRESS] = pressure_factor(th, r, G_a, G_b, consistent, packing, theta_min, theta_max)
 
 
 
@@ -140,7 +142,7 @@ def momentum_serial(lst, parts, c, sw):
     order, cstart, cj, cf, n, fields, need = lst.order, lst.cstart, lst.cj, lst.cf, lst.n, lst.fields, lst.need
     pos, mass, kind, acc, n_own = parts.pos, parts.mass, parts.kind, parts.acc, parts.n_own
     rho_s, G_b, k_visc, L, beta_max, g, m_all = c.rho_s, c.G_b, c.k_visc, c.L, c.beta_max, c.g, c.mass
-    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass, drag_on, _ = sw
+    pressure, viscosity, symmetric_mu, walls, consistent, three_d, uniform_mass, drag_on, _, _ = sw
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     dim = acc.shape[1]
     for k in range(n):

@@ -39,6 +39,7 @@ class Switches(NamedTuple):
     uniform_mass: tuple  # every particle of the run has the mass Constants.mass: the serial passes load none
     drag: tuple          # the solids are in a gas (Constants.gas): drag per particle, gravity with buoyancy
     mirror: tuple        # the walls continue the fluid's state (parsph.sph.walls; free-surface scenes)
+    packing: tuple       # the consistent form's p has the packing limit's p_f (Constants.theta_min, theta_max)
 
 
 class GasConstants(NamedTuple):
@@ -70,8 +71,8 @@ class Constants(NamedTuple):
     mass: float        # every particle's mass where Switches.uniform_mass is on (else unused)
     gas: GasConstants  # the gas where Switches.drag is on (else zeros)
     wall_volume: float  # the volume a wall particle stands for where Switches.mirror is on (one lattice site)
-    theta_min: float    # the packing limit's frictional pressure (closures.packing_pressure), the consistent form's
-    theta_max: float    # p = G / (G_a ln 10) + p_f; theta_max = 0: none
+    theta_min: float    # the packing limit's frictional pressure where Switches.packing is on
+    theta_max: float    # (closures.packing_pressure), else 0
 
 
 class PairList(NamedTuple):

@@ -100,10 +100,10 @@ def rest_drag(i, flow, axis, sign, U, u, flux, K, eps, three_d):
 
 
 @njit(cache=True, inline="always")
-def mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, theta_min, theta_max):
+def mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, packing, theta_min, theta_max):
     """theta_w with p(theta_w) = p(theta_i) + rho_s theta_i rise (rise >= 0): exact for the consistent form's
     p = G / (G_a ln 10); for the paper's p = G theta, Newton on ln p, concave in theta, from below (monotone) to
-    round-off; with the packing limit's p_f (``theta_max`` > 0), Newton on p (convex) from G's own root, which
+    round-off; with the packing limit's p_f (``packing`` on), Newton on p (convex) from G's own root, which
     lies above (monotone) to round-off."""
     if rise <= 0.0:
         return th_i
@@ -111,7 +111,7 @@ def mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, theta_min, theta_max):
     G = modulus_unchecked(th_i, G_a, G_b)
     if len(consistent):
         th = th_i + math.log1p(rho_s * th_i * rise * ga / G) / ga
-        if theta_max > 0.0:
+        if len(packing):
             target = G / ga + packing_pressure(th_i, theta_min, theta_max)[0] + rho_s * th_i * rise
             for _ in range(60):
                 Gt = modulus_unchecked(th, G_a, G_b)
@@ -139,7 +139,7 @@ def forces(lst, parts, c, sw):
     rho_s, G_a, G_b, gas = c.rho_s, c.G_a, c.G_b, c.gas
     c_press = -(10.0 ** G_b) / (rho_s * rho_s)
     three_d, consistent = sw.three_d, sw.consistent
-    theta_min, theta_max = c.theta_min, c.theta_max
+    packing, theta_min, theta_max = sw.packing, c.theta_min, c.theta_max
     for q in range(len(pairs)):
         i, w = _members(pairs[q], pi, pj, kind)
         rx, ry, rz, r = _offset(pos, i, w, three_d)
@@ -161,15 +161,15 @@ def forces(lst, parts, c, sw):
         un = -un  # the speed at which i approaches w
         if un > 0.0:
             stiff = modulus_unchecked(th_i, G_a, G_b)
-            if theta_max > 0.0:
+            if len(packing):
                 stiff += packing_pressure(th_i, theta_min, theta_max)[1]
             rise += un * (math.sqrt(stiff / rho_s) + un)
-        th_w = mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, theta_min, theta_max)
+        th_w = mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, packing, theta_min, theta_max)
         rho_w = rho_s * th_w
         m_w = rho_w * c.wall_volume
         P = 0.0
         if len(sw.pressure):
-            p_w = pressure_factor(th_w, rho_w, G_a, G_b, consistent, theta_min, theta_max)
+            p_w = pressure_factor(th_w, rho_w, G_a, G_b, consistent, packing, theta_min, theta_max)
             P = pressure_term(fields[i, PRESS], p_w, fields[i, INV_THETA],
                               1.0 / th_w, f, c_press, consistent)
         s = 0.0
