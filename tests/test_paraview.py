@@ -111,3 +111,27 @@ def test_default_reader_shows_every_array_and_the_error(tmp_path, dim):
     # the same numbers to rounding: ParaView's points against the recorded profile and an independent sum
     assert emax == pytest.approx(pmax, rel=1e-6) and erms == pytest.approx(prms, rel=1e-6)
     assert emax == pytest.approx(independent_error(out / f"{launch.PAPER.stem}_0001.h5"), rel=1e-6)
+
+
+def test_a_layer_opens_upright(tmp_path):
+    """A sedimentation layer: ParaView's points have the width along X and the height along Y (the walls'
+    rows above the lid and below the floor on Y), the velocity vector is (vy, vx, 0), and the profile error
+    binned on ParaView's Y equals parsph's."""
+    out = tmp_path / "run"
+    r = launch.run(launch.parsph_cmd("run", launch.REPO / "run" / "sedimentation.toml", "--out", out, "--quiet",
+                                     "--set", "output.t_end=0.02", "--set", "output.times=[0.02]"),
+                   timeout=300, shared_cache=True)
+    assert r.returncode == 0, r
+    snap = output.read_snapshot(output.last_snapshot(out))
+    a = snap["attrs"]
+    pv = pvpython([launch.REPO / "tests" / "paraview_points.py", out], False)
+    assert pv.returncode == 0, pv
+    bounds = [float(v) for v in pv.stdout.split("bounds")[1].split()[:4]]
+    x, y = snap["position"][:, 0], snap["position"][:, 1]
+    assert bounds == pytest.approx([y.min(), y.max(), x.min(), x.max()], rel=1e-12)
+    assert a["L"] > 4 * a["Ly"] and bounds[3] - bounds[2] > 4 * (bounds[1] - bounds[0])  # standing up
+    check = pvpython([SCRIPT, out], False)
+    assert check.returncode == 0, check
+    assert "velocity = (vy, vx, .) on every point: True" in check.stdout, check
+    m = re.search(r"max (\S+), rms (\S+) from ParaView's points; parsph: max (\S+), rms (\S+)", check.stdout)
+    assert m and m[1] == m[3] and m[2] == m[4], check

@@ -86,15 +86,16 @@ def test_sidecar_and_files_from_frames(tmp_path, dim):
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_a_layer_opens_upright(tmp_path, dim):
-    """A layer's sidecar (its files carry H0) puts the height along ParaView's Y: the geometry's X and Y are the
-    position's y and x columns (xdmf_check), the glyphs' vector (v_y, v_x, v_z); the files keep their frame."""
+    """A layer's sidecar (its files carry H0) puts the height along ParaView's Y: its geometry is the files'
+    display copy of the positions, (y, x[, z]) (xdmf_check), the glyphs' vector (v_y, v_x, v_z); the position
+    keeps the files' frame."""
     extra = ["scene.dim=3", "domain.Lz=0.0024", 'body_force.g=[-9.81, 0.0, 0.0]'] if dim == 3 else []
     cfg = config.load(SEDIMENTATION, extra)
     frames = [make_frame(cfg, 400, t, seed) for seed, t in enumerate((0.1, 0.2))]
     out = output.Output(MPI.COMM_SELF, str(tmp_path), "sed", cfg, 400)
     names = [Path(out(fr, snapshot=True)).name for fr in frames]
     grids = check_sidecar(tmp_path / "sed.xdmf", names, 400, dim)
-    assert all(g.find("Geometry").get("GeometryType") == ("X_Y", "X_Y_Z")[dim - 2] for g in grids)
+    assert all(g.find("Geometry/DataItem").text.endswith(":/particles/position_view") for g in grids)
     prof = json.loads(grids[0].find("Information").get("Value"))
     assert prof["axis"] == 1  # the file's x is ParaView's Y: a script bins the points' Y
     with h5py.File(tmp_path / names[1]) as f:

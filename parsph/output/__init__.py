@@ -26,6 +26,7 @@ is a restart point. In a file:
                            decaying flow the amplitude left), max and RMS over bins
     /particles/{id, kind, mass, position, velocity, theta}   (N,), (N,), (N,), (N, dim), (N, dim), (N,)
                            mass in kg/m in 2-D (per metre of z), kg in 3-D (MASS_UNITS)
+    /particles/position_view (N, dim) f8   layers only: ParaView's points, (y, x[, z]): the height along its Y
     /particles/velocity_xyz (N, 3) f4      2-D, and layers: ParaView's glyphs' vector in its frame ((v_x, v_y, 0);
                            a layer, drawn upright: (v_y, v_x, v_z))
     /layout/offset         (P+1,)         rows offset[r] .. offset[r+1]-1 hold writer rank r's particles

@@ -191,6 +191,9 @@ class Output:
         for key in PARTICLE_FIELDS:
             yield "particles", key, ordered(fields[key]).astype(FILE_DTYPES[key], copy=False)
         upright = "H0" in self.scales  # a layer: ParaView draws it with the height along Y (xdmf.UPRIGHT)
+        if upright:  # the display copy of the positions in ParaView's frame (its Xdmf3 reader has no X_Y)
+            pos = ordered(fields["position"])
+            yield "particles", "position_view", pos[:, list(UPRIGHT[:pos.shape[1]])].astype(np.float64)
         if self.cfg.dim == 2 or upright:  # the display copy ParaView's glyphs need, in ParaView's frame
             vel = ordered(fields["velocity"])
             v = np.zeros((n, 3), np.float32)
@@ -206,7 +209,7 @@ class Output:
         yield "layout", "memory_index", (np.arange(n) if order is None else order).astype(itype)
 
     def _units(self):
-        return dict(UNITS, mass=MASS_UNITS[self.cfg.dim], velocity_xyz="m/s", ref="m")
+        return dict(UNITS, mass=MASS_UNITS[self.cfg.dim], velocity_xyz="m/s", position_view="m", ref="m")
 
     def _write_collective(self, f, arrays, tables, off, nbins):
         """Every rank writes its rows of each dataset, and its row of the bin table (mpio driver)."""

@@ -16,9 +16,9 @@ n_y) with x the slow index, and the explicit nodes put x along ParaView's X as t
 that the cells lie under the particles.
 
 A layer or bed (gravity along -x: the outputs carry ``H0``) opens upright: ParaView's X is the file's y and
-its Y the file's x (the height), for the particles (Geometry X_Y from the position's columns), their
-``velocity`` vector (the files' display copy ``velocity_xyz``, written in that frame: (v_y, v_x, v_z)) and the
-gas grid's nodes alike. That swap
+its Y the file's x (the height), for the particles (the files' display copy ``position_view``, (y, x, z):
+ParaView 5.11's Xdmf3 reader crashes on a geometry X_Y of two columns), their ``velocity`` vector (the display
+copy ``velocity_xyz``, written in that frame: (v_y, v_x, v_z)) and the gas grid's nodes alike. That swap
 mirrors the periodic width, which changes nothing; the arrays keep the files' meaning (``vx`` is still the
 velocity along the height) and the files keep their coordinates.
 """
@@ -131,13 +131,10 @@ def xdmf_grid(entry, cells=None, ncells=None):
         if ncells != n:  # the first n rows of a longer connectivity
             item.text += f"|0:1:{n}:{ncells}"
     upright = entry.get("upright", False)
-    if upright:  # ParaView's X, Y(, Z) = the file's y, x(, z): the height up
-        geom = ET.SubElement(grid, "Geometry", GeometryType="X_Y" if dim == 2 else "X_Y_Z")
-        for c in UPRIGHT[:dim]:
-            _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"], column=c)
-    else:
-        geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
-        _data_item(geom, fname, "/particles/position", (n, dim), FILE_DTYPES["position"])
+    geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
+    # a layer: ParaView's X, Y(, Z) = the file's y, x(, z), the height up (the files' display copy)
+    _data_item(geom, fname, "/particles/position_view" if upright else "/particles/position", (n, dim),
+               np.float64 if upright else FILE_DTYPES["position"])
 
     def attribute(name, kind="Scalar"):
         return ET.SubElement(grid, "Attribute", Name=name, AttributeType=kind, Center="Node")
