@@ -14,8 +14,8 @@ constant is free). The solves are a well-kept library's: where x has sides the c
 the matrix is a narrow band (:func:`band_order`: half-width ny, or 2 nx with a periodic y folded) and LAPACK's banded Cholesky
 (scipy.linalg.cholesky_banded) factorises it, 2-3x faster than SuperLU on the grids of a bed up to a
 half-width of :data:`BAND_MAX`; past it, and where x is periodic, scipy's sparse LU (SuperLU), ordered by
-minimum degree on A + A^T where the band was too wide (2.4x faster than the band on 80 x 160 cells,
-half-width 160: 23 against 57 ms; 3x on 160 x 320).
+minimum degree on A + A^T where the band was too wide (on one idle core: 80 x 160 cells, half-width 160,
+20.6 ms the band and 19.6 ms SuperLU; 160 x 320, half-width 320, 625 and 142 ms).
 
 A factorisation costs 20 times its use (5.4 ms against 0.29 on 37 x 112 cells), and K changes little from
 one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
@@ -44,9 +44,10 @@ RTOL = 1e-10       # the preconditioned solve's end: max |residual| <= RTOL max 
 # against 1.3 ms for the factorisation); a bed at rest converges in 3-5
 MAX_ITER = 6
 REFRESH_ITER = 4   # a solve that needed more makes the next one factorise
-# the widest band factorised as a band: at half-width 120 (80 x 120 cells) the band and SuperLU each take 32 ms;
-# the band's cost grows as n w^2, SuperLU's with minimum degree about as n^1.5 (docs/performance.md)
-BAND_MAX = 120
+# the widest band factorised as a band: at half-width 160 (80 x 160 cells) the band and SuperLU take the same
+# (20 ms), at 120 the band 10 ms against 18; the band's cost grows as n w^2, SuperLU's with minimum degree
+# about as n^1.5 (docs/performance.md)
+BAND_MAX = 160
 KINDS = {"flux": FLUX, "pressure": PRESSURE}
 
 
