@@ -48,6 +48,10 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "2")  # the threaded passes compile e
 # (run file, overrides): tiny boxes that every scene accepts, a few steps, one output with particles
 TINY = ["domain.Ly=0.003", "output.t_end=3e-5", "output.times=[3e-5]", "output.progress_interval=0"]
 TINY_3D = ["domain.Lz=0.0006"]
+# run files whose solved gas needs a wider tiny box: 3 cells of 2 mm across y, with their seed's wavelength and
+# the jet's orifice inside it
+TINY_WIDER = {"bubbling_bed.toml": ["domain.Ly=0.006", "perturbation.wavelength_y=0.006", "checks.settle=0.0"],
+              "single_bubble.toml": ["domain.Ly=0.006", "gas.jet=[0.002, 0.004, 1.0, 0.05]"]}
 RUN_DIR = Path(__file__).resolve().parents[2] / "run"
 # scripts/main.sh: the paper case on 2 ranks, one thread each (a case's fourth field: its ranks, under mpirun;
 # default 1, in process); on 2 ranks 50 steps, so that the neighbour list is rebuilt and particles migrate
@@ -98,7 +102,7 @@ def _ranks(case):
 
 
 def _tiny(path):
-    return TINY + (TINY_3D if "dim = 3" in Path(path).read_text() else [])
+    return TINY + (TINY_3D if "dim = 3" in Path(path).read_text() else []) + TINY_WIDER.get(Path(path).name, [])
 
 
 def variants(run_dir, suite=False):
@@ -120,7 +124,7 @@ def variants(run_dir, suite=False):
 def describe(case):
     """A case as one line: the run file, the overrides beyond the tiny box's, the threads (and ranks)."""
     path, sets, threads, ranks = case
-    more = [s for s in sets if s not in TINY + TINY_3D]
+    more = [s for s in sets if s not in TINY + TINY_3D + TINY_WIDER.get(Path(path).name, [])]
     return " ".join(([f"mpirun -n {ranks}"] if ranks > 1 else []) + [Path(path).name] + more
                     + [f"--threads {threads}"])
 
