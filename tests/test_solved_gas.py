@@ -464,12 +464,19 @@ def test_outputs_hold_the_grid_and_its_theta_holds_the_grains_volume(tmp_path):
         assert g["p"].shape == theta.shape and g["j"].shape == g["u_g"].shape == theta.shape + (2,)
         assert "start/warm" in g and g.attrs["start_solved_at"] >= 0
         nx, ny = theta.shape
+        for key in ("u_g", "j"):  # ParaView's display copies: 3 components, a bed upright (x along its Y)
+            v, view = g[key][()], g[key + "_xyz"][()]
+            assert view.shape == (nx, ny, 3) and np.array_equal(view[..., 0], v[..., 1])
+            assert np.array_equal(view[..., 1], v[..., 0]) and not view[..., 2].any()
     # the ParaView sidecar: a "gas grid" collection, one structured grid an output, its nodes (i h_x, j h_y) as
     # ParaView places them: a bed upright, (j h_y, i h_x), as its particles (test_xdmf)
     import xml.etree.ElementTree as ET
     dom = ET.parse(tmp_path / "bed.xdmf").getroot().find("Domain")
     gas = [g for g in dom.findall("Grid") if g.get("Name") == "gas grid"]
     assert len(gas) == 1 and len(gas[0].findall("Grid")) == 2
+    vectors = {a.get("Name"): a for a in gas[0].find("Grid").findall("Attribute") if a.get("AttributeType") == "Vector"}
+    assert sorted(vectors) == ["j", "u_g"] and all(a.get("Center") == "Cell" for a in vectors.values())
+    assert vectors["u_g"].find("DataItem").text.endswith(":/grid/u_g_xyz")
     topo = gas[0].find("Grid/Topology")
     assert topo.get("TopologyType") == "2DSMesh" and topo.get("Dimensions") == f"{nx + 1} {ny + 1}"
     with h5py.File(tmp_path / "bed.cells.h5", "r") as f:

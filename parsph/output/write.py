@@ -17,7 +17,7 @@ from .files import output_files
 from .hdf5 import SERIAL_ENV, collective_dxpl, durable_rename, parallel_hdf5_available, write_rows, y_bins
 from .layout import (BIN_ROWS, FILE_DTYPES, MASS_UNITS, MAX_BINS, PARTICLE_FIELDS, PROFILE_FIELDS, PROFILE_OPTIONAL,
                      PROFILE_UNITS, UNITS)
-from .xdmf import UPRIGHT, entry_from_file, snapshot_entry, write_xdmf
+from .xdmf import UPRIGHT, VECTORS, entry_from_file, snapshot_entry, write_xdmf
 
 
 @dataclass
@@ -147,9 +147,14 @@ class Output:
         top = f.create_group("grid")
         for key, val in grid.get("attrs", {}).items():
             top.attrs[key] = val
-        for key, arr in grid.items():
-            if key == "attrs":
-                continue
+        arrays = {key: arr for key, arr in grid.items() if key != "attrs"}
+        cols = UPRIGHT[:2] if "H0" in self.scales else (0, 1)
+        for key in VECTORS:  # display copies for ParaView: 3 components, in the frame it draws
+            if key in arrays:
+                v = np.zeros(arrays[key].shape[:2] + (3,))
+                v[..., 0], v[..., 1] = arrays[key][..., cols[0]], arrays[key][..., cols[1]]
+                arrays[key + "_xyz"] = v
+        for key, arr in arrays.items():
             arr = np.ascontiguousarray(arr, np.float64)
             d = f.create_dataset("grid/" + key, arr.shape, dtype="f8")
             write_rows(d, 0, arr if self.root else arr[:0], self.dxpl)

@@ -10,7 +10,8 @@ connectivity ParaView's default reader (Xdmf3ReaderS) builds the points but no
 cells, and draws nothing.
 
 Outputs of a solved gas also hold its grid (``/grid``); a second temporal collection, "gas grid", shows
-its cells with theta and p' as cell data. Its topology is a structured mesh (2DSMesh) whose nodes,
+its cells with theta and p' as cell data, and u_g and j as cell vectors (from the files' display copies
+``/grid/u_g_xyz``, ``/grid/j_xyz``: 3 components, in the frame ParaView draws). Its topology is a structured mesh (2DSMesh) whose nodes,
 (x_i, y_j) = (i h_x, j h_y), are written once in ``<name>.cells.h5:/grid_nodes``: the arrays are (n_x,
 n_y) with x the slow index, and the explicit nodes put x along ParaView's X as the particles have it, so
 that the cells lie under the particles.
@@ -61,6 +62,7 @@ def entry_from_file(f, name):
 
 NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
 UPRIGHT = (1, 0, 2)  # the file's columns along ParaView's X, Y, Z for a layer (its height x along Y)
+VECTORS = ("u_g", "j")  # the gas grid's vectors, shown from their display copies /grid/<name>_xyz
 
 
 def _data_item(parent, fname, path, shape, dtype, column=None):
@@ -168,7 +170,7 @@ def write_grid_nodes(path, nx, ny, hx, hy, upright=False):
 
 
 def xdmf_gas_grid(entry, nodes_file):
-    """One time step of the gas grid: its cells with theta and p' as cell data."""
+    """One time step of the gas grid: its cells with theta and p' as cell data, u_g and j as cell vectors."""
     fname = entry["name"]
     nx, ny = entry["grid"][:2]
     grid = ET.Element("Grid", Name=fname + ":grid", GridType="Uniform")
@@ -179,6 +181,9 @@ def xdmf_gas_grid(entry, nodes_file):
     for key in ("theta", "p"):
         attr = ET.SubElement(grid, "Attribute", Name=key, AttributeType="Scalar", Center="Cell")
         _data_item(attr, fname, f"/grid/{key}", (nx, ny), np.float64)
+    for key in VECTORS:
+        attr = ET.SubElement(grid, "Attribute", Name=key, AttributeType="Vector", Center="Cell")
+        _data_item(attr, fname, f"/grid/{key}_xyz", (nx, ny, 3), np.float64)
     return grid
 
 
