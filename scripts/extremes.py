@@ -17,7 +17,7 @@ from parsph.studies import extremes
 
 def cases():
     cap = extremes.default_cap(extremes.BUBBLING)
-    jet = f"gas.jet=[0.035, 0.045, {10 * extremes.U_MF!r}]"
+    jet = f"gas.jet=[0.035, 0.045, {10 * extremes.minimum_fluidization(extremes.SINGLE_BUBBLE)!r}]"
     contrast = f"gas.K_max={1000 * cap!r}"
     return {
         "jet": (extremes.SINGLE_BUBBLE, [jet], 0.3),

@@ -43,6 +43,16 @@ def _scales(cfg):
     return {"V_w": cfg.V_w, "nu": cfg.nu}
 
 
+def _view_vector(a, upright, dtype):
+    """A vector field (..., dim) as ParaView draws it: 3 components (zero-padded) in its frame, the file's
+    (x, y, z) or, ``upright`` (a layer), (y, x, z)."""
+    out = np.zeros(a.shape[:-1] + (3,), dtype)
+    for k, c in enumerate(UPRIGHT if upright else (0, 1, 2)):
+        if c < a.shape[-1]:
+            out[..., k] = a[..., c]
+    return out
+
+
 def output_name(stem, k):
     return f"{stem}_{k:04d}.h5"
 
@@ -61,6 +71,7 @@ class Output:
         self.root = comm.rank == 0
         self.index = first_index
         self.scales = _scales(cfg)
+        self.upright = "H0" in self.scales  # a layer: ParaView draws it with its height along Y (xdmf.UPRIGHT)
         if not self.parallel and comm.size > 1 and self.root:
             why = (f"{SERIAL_ENV}={os.environ[SERIAL_ENV]} forces serial HDF5" if h5py.get_config().mpi
                    else "h5py has no MPI support")
@@ -132,7 +143,7 @@ class Output:
         if frame.grid is not None and "theta" in frame.grid:
             grid = (*frame.grid["theta"].shape, *frame.grid["attrs"]["cell"])
         self.written.append(snapshot_entry(name, frame.t, bool(snapshot), self.N, cfg.dim, field, scale, cfg.L,
-                                           prof[field + "_exact"], emax, erms, grid, upright="H0" in self.scales))
+                                           prof[field + "_exact"], emax, erms, grid, upright=self.upright))
         if self.root:
             write_xdmf(os.path.join(self.dir, self.stem + ".xdmf"), self.written)
         self.index += 1
@@ -148,12 +159,9 @@ class Output:
         for key, val in grid.get("attrs", {}).items():
             top.attrs[key] = val
         arrays = {key: arr for key, arr in grid.items() if key != "attrs"}
-        cols = UPRIGHT[:2] if "H0" in self.scales else (0, 1)
-        for key in VECTORS:  # display copies for ParaView: 3 components, in the frame it draws
+        for key in VECTORS:  # display copies for ParaView
             if key in arrays:
-                v = np.zeros(arrays[key].shape[:2] + (3,))
-                v[..., 0], v[..., 1] = arrays[key][..., cols[0]], arrays[key][..., cols[1]]
-                arrays[key + "_xyz"] = v
+                arrays[key + "_xyz"] = _view_vector(arrays[key], self.upright, np.float64)
         for key, arr in arrays.items():
             arr = np.ascontiguousarray(arr, np.float64)
             d = f.create_dataset("grid/" + key, arr.shape, dtype="f8")
@@ -195,17 +203,11 @@ class Output:
 
         for key in PARTICLE_FIELDS:
             yield "particles", key, ordered(fields[key]).astype(FILE_DTYPES[key], copy=False)
-        upright = "H0" in self.scales  # a layer: ParaView draws it with the height along Y (xdmf.UPRIGHT)
-        if upright:  # the display copy of the positions in ParaView's frame (its Xdmf3 reader has no X_Y)
+        if self.upright:  # the display copy of the positions in ParaView's frame (its Xdmf3 reader has no X_Y)
             pos = ordered(fields["position"])
             yield "particles", "position_view", pos[:, list(UPRIGHT[:pos.shape[1]])].astype(np.float64)
-        if self.cfg.dim == 2 or upright:  # the display copy ParaView's glyphs need, in ParaView's frame
-            vel = ordered(fields["velocity"])
-            v = np.zeros((n, 3), np.float32)
-            for k, c in enumerate(UPRIGHT if upright else (0, 1, 2)):
-                if c < vel.shape[1]:
-                    v[:, k] = vel[:, c]
-            yield "particles", "velocity_xyz", v
+        if self.cfg.dim == 2 or self.upright:  # the display copy ParaView's glyphs need
+            yield "particles", "velocity_xyz", _view_vector(ordered(fields["velocity"]), self.upright, np.float32)
         if "position_raw" in fields:  # the solver's exact state: what a restart continues from
             yield "restart", "position", ordered(fields["position_raw"]).astype(np.float64, copy=False)
             yield "restart", "ref", ordered(fields["ref"]).astype(np.float64, copy=False)

@@ -11,10 +11,10 @@ cells, and draws nothing.
 
 Outputs of a solved gas also hold its grid (``/grid``); a second temporal collection, "gas grid", shows
 its cells with theta and p' as cell data, and u_g and j as cell vectors (from the files' display copies
-``/grid/u_g_xyz``, ``/grid/j_xyz``: 3 components, in the frame ParaView draws). Its topology is a structured mesh (2DSMesh) whose nodes,
-(x_i, y_j) = (i h_x, j h_y), are written once in ``<name>.cells.h5:/grid_nodes``: the arrays are (n_x,
-n_y) with x the slow index, and the explicit nodes put x along ParaView's X as the particles have it, so
-that the cells lie under the particles.
+``/grid/u_g_xyz``, ``/grid/j_xyz``: 3 components, in the frame ParaView draws). Its topology is a
+structured mesh (2DSMesh) whose nodes, (x_i, y_j) = (i h_x, j h_y), are written once in
+``<name>.cells.h5:/grid_nodes``: the arrays are (n_x, n_y) with x the slow index, and the explicit nodes
+place the cells as the particles are placed (below), so that the cells lie under the particles.
 
 A layer or bed (gravity along -x: the outputs carry ``H0``) opens upright: ParaView's X is the file's y and
 its Y the file's x (the height), for the particles (the files' display copy ``position_view``, (y, x, z):

@@ -43,11 +43,17 @@ THETA_MIN = 0.5  # material.theta_min's default: p_f = 0 below it
 
 
 @njit(cache=True)
+def packing_limit(theta_min, theta_max):
+    """theta_c: where p_f leaves its closed form for its tangent (a run's grains should stay below it)."""
+    return theta_max - PACKING_TANGENT * (theta_max - theta_min)
+
+
+@njit(cache=True)
 def packing_pressure(theta, theta_min, theta_max):
     """(p_f, dp_f/dtheta) [Pa] of the frictional pressure at theta (zero at or below theta_min)."""
     if not theta > theta_min:
         return 0.0, 0.0
-    tc = theta_max - PACKING_TANGENT * (theta_max - theta_min)
+    tc = packing_limit(theta_min, theta_max)
     t = min(theta, tc)
     a = t - theta_min
     b = theta_max - t
@@ -56,11 +62,6 @@ def packing_pressure(theta, theta_min, theta_max):
     if theta > tc:
         p += dp * (theta - tc)
     return p, dp
-
-
-def packing_limit(theta_min, theta_max):
-    """theta_c: where p_f leaves its closed form for its tangent (a run's grains should stay below it)."""
-    return theta_max - PACKING_TANGENT * (theta_max - theta_min)
 
 
 def modulus(theta, a=G_A, b=G_B):

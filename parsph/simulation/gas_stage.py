@@ -51,6 +51,17 @@ def floor_flux(grid, gas, t=0.0):
     return U
 
 
+def reference_rate(cfg):
+    """C(theta0, no slip) / eps0 [1/s]: the scale in which the deposit sums the grains' drag rates."""
+    gas, theta0 = cfg.gas, cfg.theta0
+    return rate(gas.model, theta0, 0.0, cfg.rho_s, gas.rho, gas.mu, gas.d) / (1.0 - theta0)
+
+
+def permeability_cap(cfg):
+    """K_max of the run's solve [m^2/(Pa s)]: ``gas.K_max``, else K_MAX_FACTOR K(theta0)."""
+    return cfg.gas.K_max or K_MAX_FACTOR * permeability.of_uniform(cfg.theta0, reference_rate(cfg), cfg.rho_s)
+
+
 class GasStage:
     def __init__(self, cfg, comm, ps):
         gas = cfg.gas
@@ -60,9 +71,8 @@ class GasStage:
         g = self.grid
         self.sums = np.zeros((6, g.nx, g.ny), np.int64)
         self.exchange = GridSum(comm)
-        theta0 = cfg.theta0
-        self.rate_ref = rate(gas.model, theta0, 0.0, cfg.rho_s, gas.rho, gas.mu, gas.d) / (1.0 - theta0)
-        self.K_max = gas.K_max or K_MAX_FACTOR * permeability.of_uniform(theta0, self.rate_ref, cfg.rho_s)
+        self.rate_ref = reference_rate(cfg)
+        self.K_max = permeability_cap(cfg)
         if g.walls:  # the floor fed at U (U_jet under a jet), the lid open (p' = 0); y periodic
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", floor_flux(g, gas)),
                                                               darcy.Side("pressure", np.zeros(g.ny))), None)

@@ -34,7 +34,8 @@ N_REPORT, N_FASTEST = 6, 3  # check_report's rows: (code, severity, place, x, y,
 
 
 class Bounds(NamedTuple):
-    """The checks' thresholds (not the time step's limits, :mod:`parsph.physics.limits`), as :func:`check_report` and the compiled blocks take them."""
+    """The checks' thresholds (not the time step's limits, :mod:`parsph.physics.limits`), as
+    :func:`check_report` and the compiled blocks take them."""
     every: int          # checks.every: the steps between two checks
     walls: bool         # plates at x = 0 and x = L (check 2)
     L: float

@@ -1,7 +1,8 @@
 """The solved gas at its extremes (docs/validation.md, "At the extremes"): a jet at 10 U_mf, a contrast of
-10^6 between the permeability of clear gas and of the bed, bubbles that erupt at the bed's top. Each run is in-process on one rank (``MPI.COMM_SELF``), stepped to its end and measured
-at its outputs: the state finite, every grain between the plates, the largest theta, how often the walls'
-backstop put a grain back on a plate (``walls.reflect``) and the smallest step.
+10^6 between the permeability of clear gas and of the bed, bubbles that erupt at the bed's top. Each run is
+in-process on one rank (``MPI.COMM_SELF``), stepped to its end and measured at its outputs: the state finite,
+every grain between the plates, the largest theta, how often the walls' backstop put a grain back on a plate
+(``walls.reflect``) and the smallest step.
 """
 from dataclasses import dataclass
 import math
@@ -10,13 +11,14 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+from parsph.setup.scenes import layer
+from parsph.simulation.gas_stage import permeability_cap
 from parsph.simulation.solver import Simulation
 from parsph.sph.particles import GRAIN
 from . import layers
 
 BUBBLING = layers.RUN / "bubbling_bed.toml"
 SINGLE_BUBBLE = layers.RUN / "single_bubble.toml"
-U_MF = 0.2128  # run/single_bubble.toml's U: Ergun's U_mf at theta0 = 0.6 for its grains
 
 
 @dataclass
@@ -40,9 +42,13 @@ class Extreme:
 
 
 def default_cap(path, sets=()):
-    """The cap K_max the solved gas of ``path`` takes by default [m^2/(Pa s)] (1000 K(theta0))."""
-    cfg = layers.load(path, [*sets, "output.snapshots=false"])
-    return Simulation(cfg, MPI.COMM_SELF).gas.K_max
+    """The cap K_max the solved gas of ``path`` takes [m^2/(Pa s)] (by default 1000 K(theta0))."""
+    return permeability_cap(layers.load(path, sets))
+
+
+def minimum_fluidization(path, sets=()):
+    """U_mf of the bed of ``path`` [m/s] (Ergun at theta0, as its banner prints it)."""
+    return layer.numbers(layers.load(path, sets)).U_mf
 
 
 def run(name, path, sets, t_end, n_times=10):
