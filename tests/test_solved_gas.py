@@ -171,11 +171,37 @@ def _particles(n, Lx, Ly, seed=2):
     return pos, vel, mass, kind
 
 
-def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0):
+def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0, sides=False, ring=None):
     out = np.zeros((6, nx, ny), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
-    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, out, rates, 30.0)
+    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, sides,
+                    ring or Ly, out, rates, 30.0)
     return out
+
+
+def test_side_walls_fold_the_deposit_so_a_uniform_state_stays_uniform():
+    """Grains on a lattice filling the box between plates and side walls (4 x 4 to a cell, theta0 each) deposit
+    theta0 in every cell, the cells along the walls included (their weight beyond a wall folds back); the
+    same bits where grains are shown in another frame of the period (y + ring, y - ring: positions wrap at
+    rebuilds only); the transpose (interpolation) of a uniform field is that field at every grain."""
+    nx, ny, Lx, Ly, rho_s, theta0 = 5, 4, 0.5, 0.4, 2000.0, 0.3
+    ring = 1.25 * Ly
+    d = Lx / nx / 4
+    X, Y = np.meshgrid((np.arange(4 * nx) + 0.5) * d, (np.arange(4 * ny) + 0.5) * d, indexing="ij")
+    pos = np.column_stack([X.ravel(), Y.ravel()])
+    n = len(pos)
+    mass = np.full(n, rho_s * theta0 * d * d)
+    kind, vel = np.zeros(n, np.int64), np.zeros((n, 2))
+    sums = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s, sides=True, ring=ring)
+    np.testing.assert_allclose(sums[0] / deposit.SCALE, theta0, rtol=0, atol=1e-9)
+    shifted = pos.copy()
+    shifted[::3, 1] += ring
+    shifted[1::3, 1] -= ring
+    assert np.array_equal(_deposit(shifted, vel, mass, kind, nx, ny, Lx, Ly, rho_s, sides=True, ring=ring), sums)
+    at = np.zeros((n, 1))
+    deposit.interpolate(shifted, kind, n, np.full((nx, ny, 1), 2.5), nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, True,
+                        ring, at)
+    np.testing.assert_allclose(at[:, 0], 2.5, rtol=1e-14)
 
 
 def test_deposit_conserves_volume_and_momentum_in_any_order():
@@ -208,7 +234,7 @@ def test_interpolation_is_the_deposits_transpose():
     pos, vel, mass, kind = _particles(300, Lx, Ly, seed=4)
     f = np.random.default_rng(1).normal(size=(nx, ny, 1))
     at = np.zeros((len(mass), 1))
-    deposit.interpolate(pos, kind, len(mass), f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, at)
+    deposit.interpolate(pos, kind, len(mass), f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, False, Ly, at)
     theta = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)[0] / deposit.SCALE
     fluid = kind == GRAIN
     lhs = (mass[fluid] / rho_s * at[fluid, 0]).sum()
@@ -224,7 +250,7 @@ def test_linear_fields_are_interpolated_exactly_inside():
     rng = np.random.default_rng(0)
     pos = np.column_stack([rng.uniform(xc[0], xc[-1], 50), rng.uniform(0, Ly, 50)])
     at = np.zeros((50, 1))
-    deposit.interpolate(pos, np.zeros(50, np.int64), 50, f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, at)
+    deposit.interpolate(pos, np.zeros(50, np.int64), 50, f, nx, ny, Lx / nx, Ly / ny, Lx, Ly, True, False, Ly, at)
     assert np.allclose(at[:, 0], 2.0 * pos[:, 0] - 3.0, rtol=0, atol=1e-12)
 
 

@@ -39,9 +39,21 @@ def test_reflect_puts_grains_on_the_plates():
     pos = np.array([[-1e-5, 0.0], [0.5, 0.0], [1.2, 0.1], [-0.3, 0.0]])
     vel = np.array([[-1.0, 0.5], [-1.0, 0.0], [2.0, 1.0], [-1.0, 0.0]])
     kind = np.array([GRAIN, GRAIN, GRAIN, 1])
-    assert walls.reflect(pos, vel, kind, 4, 1.0) == 2
+    assert walls.reflect(pos, vel, kind, 4, 1.0, 0.0, 1.0) == 2
     np.testing.assert_array_equal(pos, [[0.0, 0.0], [0.5, 0.0], [1.0, 0.1], [-0.3, 0.0]])
     np.testing.assert_array_equal(vel, [[0.0, 0.5], [-1.0, 0.0], [0.0, 1.0], [-1.0, 0.0]])
+
+
+def test_reflect_puts_grains_on_the_side_walls_in_their_own_frame():
+    """Side walls at y = 0 and y = 1 with rows beyond y = 1 up to the period 1.25: a grain in those rows goes
+    to the nearer wall (y = 1, or y = 0 as the period's multiple it is nearest, positions wrapping at rebuilds
+    only), its normal velocity removed; a grain between the walls, or a wall particle, stays."""
+    pos = np.array([[0.5, 1.05], [0.5, 1.2], [0.5, -0.01], [0.5, 2.26], [0.5, 0.7], [0.5, 1.1]])
+    vel = np.array([[0.0, 1.0], [0.0, -1.0], [0.0, -2.0], [0.0, 3.0], [0.0, 1.0], [0.0, 1.0]])
+    kind = np.array([GRAIN, GRAIN, GRAIN, GRAIN, GRAIN, 1])
+    assert walls.reflect(pos, vel, kind, 6, 1.0, 1.0, 1.25) == 4
+    np.testing.assert_allclose(pos[:, 1], [1.0, 1.25, 0.0, 2.25, 0.7, 1.1], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(vel[:, 1], [0.0, 0.0, 0.0, 0.0, 1.0, 1.0])
 
 
 def test_density_next_to_the_floor_is_the_fluid_sum_renormalised():

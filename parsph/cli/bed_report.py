@@ -89,7 +89,7 @@ def measure(path, cfg):
             x = f["particles/position"][()][fluid, 0]
             m = f["particles/mass"][()][fluid]
         weight = float(m.sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly
-        found = bubbles.find(theta, hx, hy, threshold)
+        found = bubbles.find(theta, hx, hy, threshold, periodic=(False, not cfg.sides))
         frame = Frame(t, floor_drop(p), weight, mass_quantiles(x, m), found)
         if before is not None and frame.t > before.t:
             for pair in bubbles.match(before.bubbles, found, frame.t - before.t, theta.shape):

@@ -189,6 +189,10 @@ def figure(snap, field, limits, heights=None):
             ax.text(xw * 1e3, 0.98 * Ly * 1e3, f" {label} ", rotation=90, va="top",
                     ha="left" if xw == 0.0 else "right", fontsize=7, color="k",
                     bbox=dict(facecolor="white", alpha=0.6, lw=0, pad=0.5))
+    sides = bool(a.get("side_walls", False))
+    if layer and sides:   # the side walls at y = 0 and y = Ly (their particles' rows lie beyond Ly, off the picture)
+        for yw in (0.0, Ly):
+            ax.axvline(yw * 1e3, color="k", lw=1.5)
     if layer and heights is not None:
         ref, sph = heights
         if ref is not None:
@@ -200,7 +204,7 @@ def figure(snap, field, limits, heights=None):
     elif (~fluid).any():
         ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), fontsize=7, frameon=False)
     if layer:
-        ax.set_xlabel("y (periodic) [mm]")
+        ax.set_xlabel("y (between side walls) [mm]" if sides else "y (periodic) [mm]")
         ax.set_ylabel("x (height above the floor) [mm]; gravity down")
     else:
         ax.set_xlabel("x (wall-normal) [mm]")

@@ -6,7 +6,8 @@ deposits its drag resistance m C (C its drag rate, 1/s): the cell's R, whose inv
 A particle of volume m / rho_s adds w_c m / (rho_s A) to theta and that times v to theta v of the four
 cells c around it (A a cell's area, the w_c summing to 1). Where a cell would lie beyond a plate, its weight
 folds onto the cell inside (the mirror image of the particle across the plate), so that theta does not fall
-off at a wall. y (and x without walls) wrap around the period.
+off at a wall; likewise at side walls across y. y without side walls (and x without plates) wraps around the
+period.
 
 The sums are kept in fixed point (int64, :data:`SCALE` per unit): each term is rounded once, and integers add
 in any order to the same bits, so the grid is the same on any rank count and in any particle order (the
@@ -24,15 +25,17 @@ GRAIN = 0  # parsph.sph.particles.GRAIN (the gas layer imports nothing of sph)
 
 
 @njit(cache=True, inline="always")
-def _axis_weights(x, h, n, length, bounded):
-    """The two cells along one axis and their weights for a coordinate x (cell centres at (i + 1/2) h)."""
+def _axis_weights(x, h, n, length, bounded, period):
+    """The two cells along one axis and their weights for a coordinate x (cell centres at (i + 1/2) h):
+    x taken into [0, period) where ``period`` > 0 (positions wrap at rebuilds only), then onto [0, length]
+    where ``bounded``."""
+    if period > 0.0:
+        if x < 0.0:
+            x += period
+        elif x >= period:
+            x -= period
     if bounded:
         x = min(max(x, 0.0), length)
-    else:
-        if x < 0.0:
-            x += length
-        elif x >= length:
-            x -= length
     f = x / h - 0.5
     i0 = int(math.floor(f))
     w1 = f - i0
@@ -51,17 +54,19 @@ def _axis_weights(x, h, n, length, bounded):
 
 
 @njit(cache=True)
-def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, out, rate, rate_ref):
+def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, sides, ring, out, rate, rate_ref):
     """Add the owned fluid particles' theta, theta v_x, theta v_y and, where ``rate`` has them, their drag
     resistance m C / (A R_ref) and that times v_x, v_y (fixed point) to out[0..5] (shape (6, nx, ny));
-    ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]."""
+    ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]. ``walls``: x bounded
+    by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in the
+    particles' period ``ring`` along y."""
     inv = 1.0 / (rho_s * hx * hy)
     resist = len(rate) > 0
     for k in range(n_own):
         if kind[k] != GRAIN:
             continue
-        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls)
-        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, False)
+        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
+        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
         vol = mass[k] * inv
         vx = vel[k, 0]
         vy = vel[k, 1]
@@ -80,7 +85,7 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, o
 
 
 @njit(cache=True)
-def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, out):
+def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, sides, ring, out):
     """out[k] = the cell-centred ``field`` (nx, ny, c) at the owned fluid particles, with the deposit's weights
     (others get zeros)."""
     nc = field.shape[2]
@@ -89,8 +94,8 @@ def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, out):
             out[k, c] = 0.0
         if kind[k] != GRAIN:
             continue
-        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls)
-        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, False)
+        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
+        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
         for c in range(nc):
             out[k, c] = (wx0 * (wy0 * field[i0, j0, c] + wy1 * field[i0, j1, c])
                          + wx1 * (wy0 * field[i1, j0, c] + wy1 * field[i1, j1, c]))

@@ -1,6 +1,6 @@
 """The solved gas's grid: uniform cells over the box, aligned with the slabs (docs/physics.md, "The solved
 gas"). Cell centres at x = (i + 1/2) hx, y = (j + 1/2) hy; x spans the plates (0 .. L) where the scene has
-walls, else the period; y (and z) are periodic."""
+walls, else the period; y spans the side walls (0 .. Ly) where there are some, else the period."""
 from dataclasses import dataclass
 import math
 
@@ -14,6 +14,7 @@ class Grid:
     hx: float        # cell size along x [m]
     hy: float        # cell size along y [m]
     walls: bool      # x bounded by the plates at 0 and L (else periodic)
+    sides: bool = False  # y bounded by side walls at 0 and Ly (else periodic)
 
     @property
     def shape(self):
@@ -37,13 +38,15 @@ def cells_along(length, cell):
     return max(2, int(math.floor(length / cell + 0.5)))
 
 
-def grid_of(L, Ly, cell, walls):
+def grid_of(L, Ly, cell, walls, sides=False):
     """The grid of a box L x Ly with cells of about ``cell`` [m] (their sizes adjusted to tile it; 3 or more
-    along the periodic y)."""
-    nx, ny = cells_along(L, cell), max(3, cells_along(Ly, cell))
+    along a periodic axis)."""
+    nx, ny = cells_along(L, cell), cells_along(Ly, cell)
     if not walls:
         nx = max(3, nx)
-    return Grid(nx, ny, L / nx, Ly / ny, bool(walls))
+    if not sides:
+        ny = max(3, ny)
+    return Grid(nx, ny, L / nx, Ly / ny, bool(walls), bool(sides))
 
 
 def floor_drop(p):

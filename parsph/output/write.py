@@ -113,7 +113,7 @@ class Output:
                 "parsph_version": __version__, "run_file": cfg.text,
                 "scene": cfg.values["scene"]["name"], "dim": cfg.dim, "n_particles": self.N,
                 "ranks": comm.size, "time": frame.t, "step": frame.step, "index": self.index,
-                "dt": frame.dt, "L": cfg.L, "Ly": cfg.Ly, **self.scales,
+                "dt": frame.dt, "L": cfg.L, "Ly": cfg.Ly, "side_walls": bool(cfg.sides), **self.scales,
                 "kinds": "0 fluid, 1 fixed wall, 2 moving wall", "units": "SI: m, s, kg, m/s",
                 "snapshot": bool(snapshot), "error_field": field, "error_scale": scale,
             })

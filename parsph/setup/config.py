@@ -85,6 +85,18 @@ class RunConfig:
     viscosity: bool = True
     limits: dict = field(default_factory=dict)
     packing: tuple = ()  # (theta_min, theta_max) of the frictional pressure (material.theta_max), () for none
+    side_layers: int = 0  # rows of wall particles beyond y = Ly (walls.sides), 0: y periodic with period Ly
+
+    @property
+    def sides(self):
+        """Side walls at y = 0 and y = Ly (``walls.sides``)."""
+        return self.side_layers > 0
+
+    @property
+    def Ly_ring(self):
+        """The period of the slabs' ring along y [m]: Ly, and with side walls the rows of wall particles beyond
+        it, which stand for both walls (the one at y = Ly, and across the period the one at y = 0)."""
+        return self.Ly + self.side_layers * self.dy
 
     @property
     def nu(self):
@@ -99,7 +111,8 @@ class RunConfig:
         if self.scene.free_surface:
             from .scenes import layer
             fluid = min(self.Nx, layer.fluid_columns(self))
-        return (fluid + (2 * self.layers if self.scene.walls else 0)) * self.Ny * self.Nz
+        across = fluid + (2 * self.layers if self.scene.walls else 0)
+        return (across * self.Ny + (self.Nx + 2 * self.layers) * self.side_layers) * self.Nz
 
     @property
     def spacing(self):
@@ -219,6 +232,17 @@ def _wall_layers(v, lat, hkey, scene, kern):
     if not scene.walls and L < support:
         raise ConfigError("domain.L", f"{L:g} m is shorter than the kernel support 2h = {support:g} m")
     return layers if scene.walls else 0
+
+
+def _side_layers(v, scene, layers):
+    """Rows of wall particles beyond y = Ly for ``walls.sides`` (the plates' layers: they cover the kernel
+    support, so the solids on either side see a whole wall and nothing of each other); 0 without."""
+    if not v["walls"]["sides"]:
+        return 0
+    if not scene.free_surface:
+        raise ConfigError("walls.sides", f"side walls close a layer or bed on the floor (the sedimentation and "
+                          f"fluidized_bed scenes); the {scene.name} scene is periodic along y")
+    return layers
 
 
 def _body_force(v, dim, scene):
@@ -359,6 +383,7 @@ def build(run_file):
         raise ConfigError("scene.height", f"is the height of a layer on the floor (the sedimentation and "
                           f"fluidized_bed scenes); the {scene.name} scene has none: leave it out")
     layers = _wall_layers(v, lat, hkey, scene, get_kernel(num["kernel"], dim))
+    side_layers = _side_layers(v, scene, layers)
     g = _body_force(v, dim, scene)
     gas = gas_of(v, dim, g, mat["rho_s"])
     if gas is not None and gas.solved:
@@ -372,7 +397,8 @@ def build(run_file):
         kernel=num["kernel"], dt=0.0, dt_auto=False, t_end=out["t_end"], nsteps=0, output_times=(),
         integrator=num["integrator"], g=g, scene=scene, gas=gas,
         pressure=_pressure_term(v, scene),
-        viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"], packing=packing)
+        viscosity=scene.terms.viscosity if terms["viscosity"] is None else terms["viscosity"], packing=packing,
+        side_layers=side_layers)
     if scene.check is not None:
         scene.check(cfg)
     return replace(cfg, **_time_step(v, cfg))

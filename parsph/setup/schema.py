@@ -66,6 +66,8 @@ SCHEMA = {
         "V_w": Key("float", 1.0, doc="velocity of the plate at x = L along +y [m/s]"),
         "layers": Key("int", 0, nonnegative=True, hi=1000, doc="wall particle layers (0: the fewest covering 2h)"),
         "beta_max": Key("float", 1.5, lo=1.0, doc="cap of the ghost velocity factor (Morris 1997)"),
+        "sides": Key("bool", False, doc="side walls at y = 0 and y = L_y instead of the periodic strip (the layer "
+                                        "and bed scenes): walls.layers rows of wall particles beyond y = L_y"),
     },
     "numerics": {
         "Nx": Key("int", REQUIRED, lo=2, hi=2 ** 40, doc="particles across the channel"),

@@ -294,7 +294,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                 bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
                                                           motion.jump, rule.h, drag, implicit)
             if len(sw.mirror):
-                ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L)
+                ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
             timers[INTEGRATE] += wtime() - t0
             code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control,
                                   flags, flags_all, bad, rule.skin, timers, req, stat)
@@ -312,7 +312,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
         else:
             bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
         if len(sw.mirror):
-            ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L)
+            ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
         ctl.step += 1
         if dt_auto:
             ctl.t = ctl.t_target if land else ctl.t + dt

@@ -128,7 +128,7 @@ def banner(cfg, sim, comm, state, out_dir, stem):
 def max_ranks(cfg):
     """The largest rank count whose slabs hold their ghost rows (what ``parsph run`` accepts)."""
     grid = grid_for(cfg, get_kernel(cfg.kernel, cfg.dim))
-    return slabs.max_ranks(cfg.Ly, grid.cutoff, grid.m)
+    return slabs.max_ranks(cfg.Ly_ring, grid.cutoff, grid.m)
 
 
 def fits_in_memory(comm, cfg, threads=1):

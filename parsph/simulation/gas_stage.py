@@ -67,15 +67,17 @@ class GasStage:
         gas = cfg.gas
         self.gas = gas
         self.rho_s = cfg.rho_s
-        self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=cfg.scene.walls)
+        self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=cfg.scene.walls, sides=cfg.sides)
+        self.ring = cfg.Ly_ring  # the particles' period along y
         g = self.grid
         self.sums = np.zeros((6, g.nx, g.ny), np.int64)
         self.exchange = GridSum(comm)
         self.rate_ref = reference_rate(cfg)
         self.K_max = permeability_cap(cfg)
-        if g.walls:  # the floor fed at U (U_jet under a jet), the lid open (p' = 0); y periodic
+        if g.walls:  # the floor fed at U (U_jet under a jet), the lid open (p' = 0); y periodic or closed
+            closed = (darcy.Side("flux", np.zeros(g.nx)),) * 2 if g.sides else None
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", floor_flux(g, gas)),
-                                                              darcy.Side("pressure", np.zeros(g.ny))), None)
+                                                              darcy.Side("pressure", np.zeros(g.ny))), closed)
         else:  # periodic along gravity: the mean flux U through every cross-section
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, None, None, mean_flux=gas.U)
         self.every = gas.solve_every
@@ -131,7 +133,7 @@ class GasStage:
     def _interpolate(self, ps):
         g = self.grid
         deposit.interpolate(ps.pos, ps.kind, ps.n_own, self.j, g.nx, g.ny, g.hx, g.hy, g.nx * g.hx, g.ny * g.hy,
-                            g.walls, ps.flux)
+                            g.walls, g.sides, self.ring, ps.flux)
 
     def _rates(self, ps, flux, out):
         """out[k] = K of the owned particles at the slip toward ``flux`` (body_force.drag_rates)."""
@@ -162,7 +164,8 @@ class GasStage:
             self.rates[:n] = ps.drag_rate[:n] / (1.0 - ps.theta[:n])
             self.sums[:] = 0
             deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.hx, g.hy,
-                            g.nx * g.hx, g.ny * g.hy, g.walls, self.sums, self.rates, self.rate_ref)
+                            g.nx * g.hx, g.ny * g.hy, g.walls, g.sides, self.ring, self.sums, self.rates,
+                            self.rate_ref)
             self.exchange(self.sums)
             theta = deposit.theta_of(self.sums)
             R, V = deposit.resistance_of(self.sums, self.rho_s, self.rate_ref)

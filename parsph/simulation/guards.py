@@ -24,6 +24,7 @@ from numba import njit
 
 from parsph.errors import GuardError
 from parsph.sph.particles import GRAIN
+from parsph.sph.walls import side_place
 
 CHECKS = {1: "non-finite position, velocity or acceleration", 2: "fluid particle crossed a wall plane",
           3: "volume fraction out of range", 4: "kinetic energy above what the walls can inject",
@@ -43,6 +44,8 @@ class Bounds(NamedTuple):
     theta_tol: float    # checks.theta_change x theta_0 (check 3)
     h: float            # the jump limit (check 5)
     ke_bound: float     # check 4: the scene's bound at the run's fluid mass (inf: checks.energy off)
+    side: float         # side walls at y = 0 and y = side (check 2; 0: none), in the period ``ring`` along y
+    ring: float
 
 
 def energy_bound(cfg, fluid_mass):
@@ -59,7 +62,8 @@ def bounds_of(cfg, fluid_mass):
     """The Bounds of a run whose fluid (over all ranks) has mass ``fluid_mass``."""
     bound = energy_bound(cfg, fluid_mass) if cfg.get("checks.energy") else math.inf
     return Bounds(int(cfg.get("checks.every")), bool(cfg.scene.walls), float(cfg.L), float(cfg.theta0),
-                  float(cfg.get("checks.theta_change") * cfg.theta0), float(cfg.h), float(bound))
+                  float(cfg.get("checks.theta_change") * cfg.theta0), float(cfg.h), float(bound),
+                  float(cfg.Ly) if cfg.sides else 0.0, float(cfg.Ly_ring))
 
 
 @njit(cache=True)
@@ -97,6 +101,8 @@ def check_report(pos, vel, acc, theta, jump, kind, mass, n, lim, report, fastest
             if v2 > fast:
                 fast, fast_at = v2, i
             depth = max(-pos[i, 0], pos[i, 0] - lim.L)
+            if lim.side > 0.0:
+                depth = max(depth, side_place(pos[i, 1], lim.side, lim.ring)[1])
             if lim.walls and depth > 0 and depth > worst[2]:
                 worst[2], place[2] = depth, i
             dev = abs(theta[i] - lim.theta0)
@@ -160,6 +166,9 @@ def read(fields, cfg, theta_ref=None, acc=None):
             finite &= np.isfinite(acc).all(axis=1)
         depth = np.where(fl & finite, np.maximum(-pos[:, 0], pos[:, 0] - cfg.L), -np.inf) \
             if cfg.scene.walls else np.full(len(kind), -np.inf)   # beyond a wall plane [m]
+        if cfg.sides:
+            yy = np.mod(pos[:, 1], cfg.Ly_ring)
+            depth = np.maximum(depth, np.where(fl & finite, np.minimum(yy - cfg.Ly, cfg.Ly_ring - yy), -np.inf))
         th = theta[fl]
         rel = np.abs(th - (ref if np.ndim(ref) == 0 else ref[fl])) / (ref if np.ndim(ref) == 0 else ref[fl])
         dev = math.inf if not np.isfinite(th).all() else float(rel.max(initial=0.0))
@@ -188,7 +197,7 @@ def run_checks(collect, ps, cfg, step, t, lim):
     totals = collect.sum(np.array([ke, fastest[2]]))
     failed = reports[reports[:, 0] > 0]
     where = f"at step {step}, t = {t:.6g} s"
-    y_shown = lambda y: y % cfg.Ly if math.isfinite(y) else y  # noqa: E731  (positions wrap at rebuilds only)
+    y_shown = lambda y: y % cfg.Ly_ring if math.isfinite(y) else y  # noqa: E731  (positions wrap at rebuilds only)
     if len(failed):
         failed = failed[failed[:, 0] == failed[:, 0].min()]
         code, severity, gid, x, y, value = failed[np.argmax(failed[:, 1])]

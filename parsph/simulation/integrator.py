@@ -23,7 +23,9 @@ class Integrator:
         self.implicit = pass_data.switch(gas is not None and gas.implicit)
         self.explicit_drag = gas is not None and not gas.implicit  # the auto rule's drag limit applies
         self.no_state = np.zeros((0, cfg.dim))
-        self.plates = float(cfg.L) if cfg.scene.free_surface else None  # walls.reflect's, beside the mirror
+        # walls.reflect's plates beside the mirror: L, and the side walls' Ly (0: none) in the period along y
+        self.plates = (float(cfg.L), float(cfg.Ly) if cfg.sides else 0.0, float(cfg.Ly_ring)) \
+            if cfg.scene.free_surface else None
         self.reflected = 0  # grains walls.reflect put back on a plate (this rank, the Python path)
 
     def drag_field(self, ps):
@@ -48,7 +50,7 @@ class Integrator:
 
     def _reflect(self, ps):
         if self.plates is not None:
-            self.reflected += walls.reflect(ps.pos, ps.vel, ps.kind, ps.n_own, self.plates)
+            self.reflected += walls.reflect(ps.pos, ps.vel, ps.kind, ps.n_own, *self.plates)
 
     def second(self, ps, dt):
         """The midpoint scheme's second half, from the rates at the midpoint."""

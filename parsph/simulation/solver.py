@@ -60,7 +60,7 @@ class Simulation:
         self.skin = cfg.get("numerics.skin") * cfg.h
         self.grid = grid_for(cfg, self.kernel)
         self.native, self.native_why = native_route(native)
-        self.ring = SlabRing(comm, cfg.Ly, self.grid, clock, native=self.native)
+        self.ring = SlabRing(comm, cfg.Ly_ring, self.grid, clock, native=self.native)
         self.collect = Collectives(comm)
         self.ps, restore = start.slab_particles(cfg, self.ring, comm, state)
         ps = self.ps

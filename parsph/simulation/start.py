@@ -86,7 +86,8 @@ def pass_groups(cfg, kernel, mass):
     w0 = kernel_w_f(kernel.kid, 0.0, inv_h, norm)[0]
     consts = pass_data.Constants(kernel.kid, inv_h, norm, w0, cfg.rho_s, cfg.G_a, cfg.G_b, cfg.k, cfg.L,
                                  cfg.beta_max, np.asarray(g, float), mass, gas_constants(cfg.gas),
-                                 cfg.mass / (cfg.rho_s * cfg.theta0), *(cfg.packing or (0.0, 0.0)))
+                                 cfg.mass / (cfg.rho_s * cfg.theta0), *(cfg.packing or (0.0, 0.0)),
+                                 cfg.Ly if cfg.sides else 0.0, cfg.Ly_ring)
     switches = pass_data.Switches(sw(cfg.pressure), sw(cfg.viscosity),
                                   sw(cfg.get("numerics.viscosity_form") == "symmetric"), sw(cfg.scene.walls),
                                   sw(cfg.get("numerics.pressure_form") == "consistent"), sw(cfg.dim == 3),

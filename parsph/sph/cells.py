@@ -105,7 +105,7 @@ def grid_for(cfg, kernel):
     cutoff = kernel.support * cfg.h + cfg.get("numerics.skin") * cfg.h
     edge = (cfg.layers - 0.5) * cfg.dx  # the outermost wall particles' distance beyond the plates
     x_lo, x_hi = (-edge, cfg.L + edge) if cfg.scene.walls else (0.0, cfg.L)
-    return Grid(cutoff, cfg.dim, cfg.scene.walls, cfg.L, cfg.Ly, cfg.Lz if cfg.dim == 3 else 0.0, x_lo, x_hi)
+    return Grid(cutoff, cfg.dim, cfg.scene.walls, cfg.L, cfg.Ly_ring, cfg.Lz if cfg.dim == 3 else 0.0, x_lo, x_hi)
 
 
 @njit(cache=True)

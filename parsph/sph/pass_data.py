@@ -73,6 +73,8 @@ class Constants(NamedTuple):
     wall_volume: float  # the volume a wall particle stands for where Switches.mirror is on (one lattice site)
     theta_min: float    # the packing limit's frictional pressure where Switches.packing is on
     theta_max: float    # (closures.packing_pressure), else 0
+    side: float         # with side walls (walls.sides): their distance Ly [m], else 0
+    ring: float         # the period along y [m] (Ly, and with side walls their rows beyond it)
 
 
 class PairList(NamedTuple):

@@ -131,6 +131,24 @@ def mirror_theta(th_i, rise, G_a, G_b, rho_s, consistent, packing, theta_min, th
     return th
 
 
+@njit(cache=True, inline="always")
+def no_slip(pos, i, w, ry, c):
+    """The no-slip factor beta (pair_terms.wall_factor) of fluid particle i seen by wall particle w: toward the
+    plate at x = 0 or L behind w, or with side walls (w between the plates: a side wall's row) toward the one
+    on i's side (``ry`` = y_i - y_w > 0: y = 0, else y = Ly)."""
+    xw = pos[w, 0]
+    if not (c.side > 0.0 and xw >= 0.0 and xw <= c.L):
+        return wall_factor(pos[i, 0], xw, c.L, c.beta_max)
+    yy, depth = side_place(pos[i, 1], c.side, c.ring)
+    if ry > 0.0:
+        d_k = yy if yy <= c.side else yy - c.ring
+    else:
+        d_k = c.side - yy
+    if d_k > 0.0:
+        return min(c.beta_max, 1.0 + (abs(ry) - d_k) / d_k)
+    return c.beta_max
+
+
 @njit(cache=True, error_model="numpy")
 def forces(lst, parts, c, sw):
     """The walls' part of Eq. (5) on the owned fluid, added to ``acc`` after the fluid pairs and the body force."""
@@ -176,18 +194,27 @@ def forces(lst, parts, c, sw):
         if len(sw.viscosity):
             V = viscous_term(th_i, th_w, fields[i, INV_RHO], 1.0 / rho_w, f)
             mu = viscosity_coefficient(th_i, th_i, th_w, c.k_visc, sw.symmetric_mu)
-            s = mu * wall_factor(pos[i, 0], pos[w, 0], c.L, c.beta_max) * V
+            s = mu * no_slip(pos, i, w, ry, c) * V
         acc[i, 0] += m_w * (P * rx + s * (fields[i, VX] - fields[w, VX]))
         acc[i, 1] += m_w * (P * ry + s * (fields[i, VY] - fields[w, VY]))
         if len(three_d):
             acc[i, 2] += m_w * (P * rz + s * (fields[i, VZ] - fields[w, VZ]))
 
 
+@njit(cache=True, inline="always")
+def side_place(y, side, ring):
+    """y in [0, ring) (positions wrap at rebuilds only), and the depth beyond the side walls (<= 0: between
+    them at 0 and ``side``; the rows beyond ``side`` stand for both walls across the period)."""
+    yy = y - ring * math.floor(y / ring)
+    return yy, min(yy - side, ring - yy)
+
+
 @njit(cache=True)
-def reflect(pos, vel, kind, n_own, L):
-    """A grain that reached a plate (x < 0 or x > L) after a step is put on it with its normal velocity
-    removed (restitution 0, MP-PIC's wall for parcels: Snider 2001), the backstop for what the pressure
-    cannot stop within a step (a loose layer falling as dust, Mach 30 at its grains' speed); the number."""
+def reflect(pos, vel, kind, n_own, L, side, ring):
+    """A grain that reached a plate (x < 0 or x > L; with side walls, ``side`` > 0, y outside [0, side] in
+    the period ``ring``) after a step is put on it with its normal velocity removed (restitution 0, MP-PIC's
+    wall for parcels: Snider 2001), the backstop for what the pressure cannot stop within a step (a loose
+    layer falling as dust, Mach 30 at its grains' speed); the number."""
     count = 0
     for k in range(n_own):
         if kind[k] != GRAIN:
@@ -201,4 +228,14 @@ def reflect(pos, vel, kind, n_own, L):
             pos[k, 0] = L
             vel[k, 0] = min(vel[k, 0], 0.0)
             count += 1
+        if side > 0.0:
+            yy, depth = side_place(pos[k, 1], side, ring)
+            if depth > 0.0:
+                if yy - side < ring - yy:  # beyond y = side: onto it, in the particle's own frame
+                    pos[k, 1] -= yy - side
+                    vel[k, 1] = min(vel[k, 1], 0.0)
+                else:  # beyond y = 0 (= ring)
+                    pos[k, 1] += ring - yy
+                    vel[k, 1] = max(vel[k, 1], 0.0)
+                count += 1
     return count

@@ -58,6 +58,10 @@ CASES = {
     "fluidized_bed_solved": ("fluidized_bed.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
                                                     "scene.height=0.0016", "numerics.dt=5e-5", 'gas.flow="solved"'],
                              0.1, 80),
+    # and between side walls (walls.sides): the wall rows beyond L_y span the ring's seam, the grid's y closed
+    "fluidized_bed_sides": ("fluidized_bed.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
+                                                   "scene.height=0.0016", "numerics.dt=5e-5", 'gas.flow="solved"',
+                                                   "walls.sides=true"], 0.1, 80),
 }
 FIELDS = ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")
 
@@ -74,7 +78,7 @@ def perturb(sim, amplitude, seed=7):
     """Add a random velocity to the owned fluid particles: a function of the global id alone (one draw per
     lattice site, the empty sites above a layer's top included)."""
     ps, n, cfg = sim.ps, sim.ps.n_own, sim.cfg
-    sites = (cfg.Nx + 2 * cfg.layers) * cfg.Ny * cfg.Nz
+    sites = (cfg.Nx + 2 * cfg.layers) * (cfg.Ny + cfg.side_layers) * cfg.Nz
     kick = np.random.default_rng(seed).normal(0.0, amplitude, (sites, cfg.dim))
     fluid = ps.kind[:n] == GRAIN
     ps.vel[:n][fluid] += kick[ps.gid[:n][fluid]]

@@ -70,29 +70,38 @@ def lattice(cfg, y_lo, y_hi, right_wall=WALL, right_velocity=0.0, fluid_columns=
     Fluid at x = (i + 1/2) dx, i < Nx (i < ``fluid_columns`` where given: a layer on the floor, the lattice
     empty above it up to the lid); with walls, ``cfg.layers`` columns
     continue the lattice beyond x = 0 (fixed) and x = L (``right_wall``,
-    moving along y at ``right_velocity``). y = (j + 1/2) dy, z = (k + 1/2) dz.
-    The global id numbers lattice sites (``(k Ny + row) ncol + col``), so each
-    rank builds its own particles without communication.
+    moving along y at ``right_velocity``). y = (j + 1/2) dy, z = (k + 1/2) dz; with side walls
+    (``cfg.side_layers``) the rows j >= Ny are fixed wall across the whole lattice, plates included.
+    The global id numbers lattice sites (``(k Ny' + row) ncol + col``, Ny' the rows with the side walls'),
+    so each rank builds its own particles without communication.
     """
     nw = cfg.layers if cfg.scene.walls else 0
     ncol = cfg.Nx + 2 * nw
     col = np.arange(ncol)
     x = (col - nw + 0.5) * cfg.dx
     kind_col = np.where(col < nw, WALL, np.where(col >= nw + cfg.Nx, right_wall, GRAIN))
+    keep = np.ones(ncol, bool)
     if fluid_columns is not None:
         keep = (col < nw + fluid_columns) | (col >= nw + cfg.Nx)
-        col, x, kind_col = col[keep], x[keep], kind_col[keep]
-    rows = np.arange(cfg.Ny)
+    rows_all = cfg.Ny + cfg.side_layers
+    rows = np.arange(rows_all)
     rows = rows[((rows + 0.5) * cfg.dy >= y_lo) & ((rows + 0.5) * cfg.dy < y_hi)]
+    side = rows >= cfg.Ny
     layers = np.arange(cfg.Nz)
-    K, R, C = np.meshgrid(layers, rows, np.arange(col.size), indexing="ij")
-    gid = ((K * cfg.Ny + R) * ncol + col[C]).ravel()
-    pos = np.empty((gid.size, cfg.dim))
-    pos[:, 0] = x[C.ravel()]
-    pos[:, 1] = (R.ravel() + 0.5) * cfg.dy
-    if cfg.dim == 3:
-        pos[:, 2] = (K.ravel() + 0.5) * cfg.dz
-    kind = kind_col[C.ravel()]
+    parts = []
+    for rws, cols, kinds in ((rows[~side], col[keep], kind_col[keep]), (rows[side], col, np.full(ncol, WALL))):
+        K, R, C = np.meshgrid(layers, rws, np.arange(cols.size), indexing="ij")
+        p = np.empty((K.size, cfg.dim))
+        p[:, 0] = x[cols[C.ravel()]]
+        p[:, 1] = (R.ravel() + 0.5) * cfg.dy
+        if cfg.dim == 3:
+            p[:, 2] = (K.ravel() + 0.5) * cfg.dz
+        parts.append((((K * rows_all + R) * ncol + cols[C]).ravel(), kinds[C.ravel()], p))
+    gid = np.concatenate([q[0] for q in parts])
+    kind = np.concatenate([q[1] for q in parts])
+    pos = np.concatenate([q[2] for q in parts])
+    order = np.argsort(gid, kind="stable")
+    gid, kind, pos = gid[order], kind[order], pos[order]
     vel = np.zeros_like(pos)
     vel[kind == MOVING_WALL, 1] = right_velocity
     mass = np.full(gid.size, cfg.mass)

@@ -205,7 +205,8 @@ def describe(cfg):
     n = numbers(cfg)
     packed = (f" (past random close packing, {RANDOM_CLOSE_PACKING:g}: outside the physical range)"
               if n.packed_past else "")
-    head = f"  layer: theta0 = {n.theta0:.4g}{packed}, H0 = {n.H0:.4g} m"
+    across = (f"between side walls {cfg.Ly:g} m apart" if cfg.sides else f"periodic across L_y = {cfg.Ly:g} m")
+    head = f"  layer: theta0 = {n.theta0:.4g}{packed}, H0 = {n.H0:.4g} m, {across}"
     if cfg.packing:
         lo, hi = cfg.packing
         p_f = closures.packing_pressure(cfg.theta0, lo, hi)[0]
