@@ -119,6 +119,29 @@ def test_time_average_of_the_drop_is_the_trapezoids():
     assert math.isnan(Bed(bed.frames[:1], settle=0.0).mean_drop())
 
 
+@pytest.mark.parametrize("phi", [0.0, 0.6, 0.9])
+def test_standard_error_of_a_time_average_against_an_autoregressive_series(phi):
+    """mean_standard_error over 300 series of 400 values of x_t = phi x_{t-1} + e_t (unit normal e): its
+    squared error averaged over the series against the exact variance of the mean of such a series,
+    var(x) / n^2 (n + 2 sum_k (n - k) phi^k) with var(x) = 1 / (1 - phi^2), within 15% (the estimator cuts
+    the autocorrelation's sum where it first turns negative: a bias of a few %)."""
+    from parsph.cli.bed_report import mean_standard_error
+    n, m = 400, 300
+    rng = np.random.default_rng(3)
+    e = rng.normal(size=(m, n + 200))
+    x = np.zeros_like(e)
+    for t in range(1, n + 200):  # 200 values to forget the start
+        x[:, t] = phi * x[:, t - 1] + e[:, t]
+    x = x[:, 200:]
+    k = np.arange(1, n)
+    exact = 1.0 / (1.0 - phi ** 2) / n ** 2 * (n + 2.0 * np.sum((n - k) * phi ** k))
+    estimated = np.mean([mean_standard_error(s)[0] ** 2 for s in x])
+    assert estimated == pytest.approx(exact, rel=0.15)
+    se, samples = mean_standard_error(x[0])
+    assert samples == pytest.approx(n * np.var(x[0]) / n / se ** 2, rel=1e-12)
+    assert math.isnan(mean_standard_error([1.0, 2.0])[0])
+
+
 def test_a_window_under_a_second_is_reported_not_judged():
     """Reference 8's average is over at least 1 s of bubbling: the Verdict of a shorter window judges nothing."""
     from parsph.cli import bed_report

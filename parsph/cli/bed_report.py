@@ -52,6 +52,11 @@ class Bed:
     def window(self):
         return [f for f in self.frames if f.t >= self.settle]
 
+    def drop_error(self):
+        """(standard error, independent samples) of :meth:`mean_drop` from the drop's fluctuations in the
+        window (:func:`mean_standard_error`; outputs at even times)."""
+        return mean_standard_error([f.drop / f.weight for f in self.window()])
+
     def mean_drop(self):
         """The drop over the weight averaged in time over the window (trapezoids between outputs); NaN with
         fewer than two outputs in it."""
@@ -61,6 +66,28 @@ class Bed:
         t = np.array([f.t for f in w])
         r = np.array([f.drop / f.weight for f in w])
         return float(np.sum(0.5 * (r[1:] + r[:-1]) * np.diff(t)) / (t[-1] - t[0]))
+
+
+def mean_standard_error(x):
+    """(the standard error of the mean of the series x, its effective number of independent samples): for a
+    stationary series, var(mean) = var(x) tau / n with tau = 1 + 2 sum_k rho_k, the integrated
+    autocorrelation, summed here while rho_k stays positive (Geyer's initial positive sequence); NaN for
+    fewer than 3 values."""
+    x = np.asarray(x, float)
+    n = len(x)
+    if n < 3:
+        return math.nan, math.nan
+    d = x - x.mean()
+    var = float(d @ d) / n
+    if not var > 0:
+        return 0.0, float(n)
+    tau = 1.0
+    for k in range(1, n - 1):
+        rho = float(d[:-k] @ d[k:]) / (n * var)
+        if rho <= 0:
+            break
+        tau += 2.0 * rho
+    return math.sqrt(var * tau / n), n / tau
 
 
 def measure(path, cfg):
@@ -157,8 +184,11 @@ def report(path, cfg, tol=TOL_DROP, rows=20):
         lines.append(f"bed: the drop not judged (fewer than two outputs from t = {bed.settle:g} s)")
         return lines, verdict
     h = np.mean([f.heights for f in w], axis=0)
+    se, samples = bed.drop_error()
+    spread = (f"; its standard error {se * 100:.2g}%, from {samples:.3g} independent samples of the drop's "
+              "fluctuations") if math.isfinite(se) else ""
     lines.append(f"averaged over {w[0].t:g}-{w[-1].t:g} s ({span:.3g} s, {len(w)} outputs): drop/W = {mean:.5f} "
-                 f"({(mean - 1) * 100:+.2f}%); h50 = {h[2] * 1e3:.4g} mm, h95 = {h[4] * 1e3:.4g} mm (h95 / H0 = "
+                 f"({(mean - 1) * 100:+.2f}%{spread}); h50 = {h[2] * 1e3:.4g} mm, h95 = {h[4] * 1e3:.4g} mm (h95 / H0 = "
                  f"{h[4] / n.H0:.3g}); {np.mean([len(f.bubbles) for f in w]):.3g} bubbles an output"
                  + ("" if verdict.judged else f"; under the {MIN_WINDOW:g} s of bubbling reference 8's average asks "
                                               "for: reported, not judged"))
@@ -186,8 +216,11 @@ def report(path, cfg, tol=TOL_DROP, rows=20):
         lines.append("rise velocity: no bubble matched between consecutive outputs from t = "
                      f"{bed.settle:g} s (outputs closer in time than a bubble's size over its rise velocity)")
     if verdict.judged:
+        unresolved = (not verdict.ok and math.isfinite(se) and abs(mean - 1.0) < 2.0 * se)
         lines.append(f"bed: the time-averaged drop {'within' if verdict.ok else 'beyond'} {tol * 100:g}% of the "
-                     f"weight ({(mean - 1) * 100:+.2f}%)")
+                     f"weight ({(mean - 1) * 100:+.2f}%)"
+                     + (f"; within two standard errors ({se * 100:.2g}%) of it: the window is too short to resolve "
+                        f"{tol * 100:g}%" if unresolved else ""))
     else:
         lines.append(f"bed: the drop not judged (its window {span:.3g} s, under {MIN_WINDOW:g} s)")
     return lines, verdict
