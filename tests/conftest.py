@@ -8,7 +8,14 @@ import sys
 import tomllib
 from pathlib import Path
 
+import numba
 import pytest
+
+# Each worker's in-process runs on one numba thread, as `parsph run` without --threads and as the set-up
+# compiled them (numba's default is one thread a core: every in-process Simulation would compile and run the
+# threaded passes, three workers' threads on two cores); results are the same bits on any thread count
+# (test_threads.py), and the tests of threads set their own count and come back to one
+numba.set_num_threads(1)
 
 ROOT = Path(__file__).resolve().parent.parent
 PAPER_TOML = ROOT / "run" / "couette_paper.toml"

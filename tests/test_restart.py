@@ -205,9 +205,9 @@ PHYSICS_CHANGES = {
 }
 # the gas's other keys are refused without gas.drag (each is a physics key like gas.drag, compared alike)
 NEED_DRAG = {"gas.rho", "gas.mu", "gas.flow", "gas.velocity", "gas.U"}
-# scene.height is refused outside the layer scenes (sedimentation, fluidized_bed), so not on the paper case;
-# restart_state compares it like every key outside [output] and [checks]
-NEED_LAYER = {"scene.height"}
+# scene.height and walls.sides are refused outside the layer scenes (sedimentation, fluidized_bed), so not on the
+# paper case; restart_state compares them like every key outside [output] and [checks]
+NEED_LAYER = {"scene.height", "walls.sides"}
 # the solved gas's grid keys are refused without gas.flow = "solved", and a perturbation's two keys each without
 # the other; restart_state compares them like every key outside [output] and [checks]
 NEED_SOLVED = {"gas.cell", "gas.K_max", "gas.solve_every", "gas.jet"}

@@ -244,7 +244,9 @@ class Darcy:
                                PERIODIC if x_sides is None else KINDS[xs[1].kind],
                                PERIODIC if y_sides is None else KINDS[ys[0].kind],
                                PERIODIC if y_sides is None else KINDS[ys[1].kind]], np.int64)
-        self.values = [np.ascontiguousarray(np.broadcast_to(np.asarray(s.values, float), (m,)))
+        # own writable copies: one array type for every side (a read-only view would be a type of its own to the
+        # compiled loops: a version more of each)
+        self.values = [np.array(np.broadcast_to(np.asarray(s.values, float), (m,)))
                        for s, m in ((xs[0], ny), (xs[1], ny), (ys[0], nx), (ys[1], nx))]
         self.pin = not np.any(self.kinds == PRESSURE)
         # the pattern: each cell and its neighbours across inner (or periodic) faces, columns sorted

@@ -295,7 +295,8 @@ def _perturbation(v):
         Ly = L if v["domain"]["Ly"] is None else v["domain"]["Ly"]
         if v["scene"]["dim"] == 1:
             raise ConfigError("perturbation.wavelength_y", "varies the seed across y; a 1-D scene has no y")
-        if abs(Ly / lam_y - round(Ly / lam_y)) > 1e-9 * Ly / lam_y or round(Ly / lam_y) < 1:
+        if not v["walls"]["sides"] and (abs(Ly / lam_y - round(Ly / lam_y)) > 1e-9 * Ly / lam_y
+                                        or round(Ly / lam_y) < 1):
             raise ConfigError("perturbation.wavelength_y", f"{lam_y:g} m does not divide the period domain.Ly = "
                               f"{Ly:g} m (y is periodic): give Ly / n")
     return A, lam

@@ -45,10 +45,10 @@ def slabs_refused(p, nx, sets):
     cfg = bench(nx, sets)
     grid = cells.grid_for(cfg, kernels.get_kernel(cfg.kernel, cfg.dim))
     cut = grid.cutoff
-    if slabs.fits(cfg.Ly, p, grid.axes[1].side, grid.axes[1].n, grid.m):
+    if slabs.fits(cfg.Ly_ring, p, grid.axes[1].side, grid.axes[1].n, grid.m):
         return None
     return (f"{p} ranks do not fit N_x = {nx}, L_y = {cfg.Ly:g} m (slabs of at least about 1.5 x the cutoff "
-            f"{cut:g} m): at most {slabs.max_ranks(cfg.Ly, cut, cells.CELLS_PER_CUTOFF)}")
+            f"{cut:g} m): at most {slabs.max_ranks(cfg.Ly_ring, cut, cells.CELLS_PER_CUTOFF)}")
 
 
 # ---- one rank, under mpirun ------------------------------------------------------------------------
