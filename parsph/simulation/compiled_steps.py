@@ -3,12 +3,11 @@ between Python and the block (``block.CONTROL``), the scratch of its all-reduces
 arguments (this build's arrays, made anew after each build) and the block compiled for their types.
 The driver (:class:`parsph.simulation.solver.Simulation`) decides what a returned code asks."""
 
-import numba
 import numpy as np
 
 from parsph.parallel import native_mpi
 from parsph.physics import limits
-from parsph.sph import pass_data
+from parsph.sph import dispatch, pass_data
 from parsph.sph.dispatch import compiled, kinds
 from . import block
 from .block import Modes, Motion, Rule
@@ -46,7 +45,7 @@ class CompiledSteps:
         """The compiled block for this build's argument types (compiled or loaded from the cache once)."""
         if self._args is None:
             ps, R, N, cfg, integ = self.ps, self.rates, self.neighbours, self.cfg, self.integrator
-            threaded = numba.get_num_threads() > 1
+            threaded = dispatch.threaded()
             sw = pass_data.switch
             modes = Modes(sw(integ.midpoint), bool(cfg.dt_auto), sw(threaded), integ.implicit,
                           bool(integ.explicit_drag))

@@ -1,10 +1,9 @@
 """The integrator of the Python path (LAMMPS's Fix for the time integration): the paper's step,
 Eqs. (6)-(7), or the midpoint scheme's two halves (:mod:`parsph.sph.integrators`), with the gas's drag
 explicit or implicit in v. The compiled blocks take the same functions through :attr:`Integrator.modes`."""
-import numba
 import numpy as np
 
-from parsph.sph import integrators, pass_data, walls
+from parsph.sph import dispatch, integrators, pass_data, walls
 
 
 class Integrator:
@@ -36,7 +35,7 @@ class Integrator:
     def first(self, ps, dt):
         """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles.
         On one thread the serial loops, as the compiled block takes them (no parallel region to compile)."""
-        serial = numba.get_num_threads() == 1
+        serial = not dispatch.threaded()
         if not self.midpoint:
             step = integrators.step_paper_serial if serial else integrators.step_paper
             bad = step(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
@@ -54,7 +53,7 @@ class Integrator:
 
     def second(self, ps, dt):
         """The midpoint scheme's second half, from the rates at the midpoint."""
-        correct = integrators.midpoint_correct_serial if numba.get_num_threads() == 1 else integrators.midpoint_correct
+        correct = integrators.midpoint_correct if dispatch.threaded() else integrators.midpoint_correct_serial
         bad = correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
                       self.drag_field(ps), self.implicit)
         self._reflect(ps)

@@ -9,6 +9,13 @@ import numba
 import numpy as np
 
 
+def threaded():
+    """Whether this process runs the threaded passes and integrators (numba's thread count above one), else
+    the serial ones, so that a one-thread run compiles and runs no parallel region: the one place that
+    choice is made, for the compiled block and the Python path alike."""
+    return numba.get_num_threads() > 1
+
+
 def compiled(dispatcher, *args):
     """The version of a numba function compiled for the types of ``args`` (compiled, or loaded from the
     cache, now).

@@ -8,11 +8,10 @@ In LAMMPS's terms, the Pair.
 """
 import time
 
-import numba
 import numpy as np
 
 from . import density, momentum, pass_data, walls
-from .dispatch import Calls
+from .dispatch import Calls, threaded
 
 PASSES = {"density_serial": density.density_serial, "density_threaded": density.density_threaded,
           "particle_factors": momentum.particle_factors, "particle_factors_serial": momentum.particle_factors_serial,
@@ -81,7 +80,7 @@ class Rates:
         lst, c, sw, run = self.list, self.consts, self.switches, self._calls
         parts = pass_data.particle_arrays(ps)
         n, n_own = lst.n, ps.n_own
-        gather = self.gather_arrays() if numba.get_num_threads() > 1 else None
+        gather = self.gather_arrays() if threaded() else None
         t0 = clock()
         # one thread: the serial factors, as the compiled block takes them (no parallel=True code compiled)
         factors = "particle_factors" if gather is not None else "particle_factors_serial"
