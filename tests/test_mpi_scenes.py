@@ -13,7 +13,8 @@ edges), Poiseuille flow (a body force along y), and two in a gas: the periodic b
 stream along y (Gidaspow, implicit drag) and the settling column sheared by a stream of water along y
 (Wen & Yu, explicit drag), and the layer scenes: the sedimenting layer and the fluidised bed in water (a free
 top with the lattice empty above it, floor walls holding the end state's theta and mass), and both again in
-the solved gas (the grid's deposits summed over the ranks, its pressure solved on each). The fluid gets a random
+the solved gas (the grid's deposits summed over the ranks, its pressure solved on each), the bed also between
+side walls (walls.sides: their rows across the ring's seam, the grid's y closed). The fluid gets a random
 velocity (a function of the global id, the same on every rank count), so that
 particles leave the lattice and cross slab edges and the periodic boundaries
 in x and z. Compared after the run, sorted by global id: the state (position,
@@ -21,7 +22,8 @@ velocity) and the rates of the last evaluation (acceleration, density,
 theta), with ``np.array_equal``; each run is checked to have rebuilt its list
 after the first build and to have migrated particles between ranks.
 Restarts: 3-D Couette, the periodic box, the box in a gas, the two layer scenes and the bed in the solved gas,
-P -> 1 and 1 -> P ranks. Threads: the same six on ``mpirun -n 2`` with 2 threads per rank
+P -> 1 and 1 -> P ranks. Threads: the same six and the bed between side walls on ``mpirun -n 2`` with 2
+threads per rank
 against 1 rank with 1 thread (a launched job: the MPI phases run 1 thread).
 
 The one-rank reference runs on rank 0 on COMM_SELF inside the same job
@@ -152,7 +154,7 @@ def test_restart_across_rank_counts(scene, mpi_tmp_path):
 # ---- threads on several ranks (a launched mpirun: the MPI phases run one thread per rank) ---------------
 @pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 @pytest.mark.parametrize("scene", ["couette_3d", "periodic_box", "box_gas", "sedimentation", "fluidized_bed",
-                                   "fluidized_bed_solved"])
+                                   "fluidized_bed_solved", "fluidized_bed_sides"])
 def test_threads_on_two_ranks_bit_for_bit(scene):
     """``mpirun -n 2`` with 2 numba threads per rank (NUMBA_NUM_THREADS=2 set for the job, so this
     runs on a one-core machine too) against one rank with one thread, bit for bit."""
