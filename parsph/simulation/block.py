@@ -136,12 +136,14 @@ def _density(lst, parts, c, sw, gather, threaded):
 
 
 @njit(cache=True)
-def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
-    """The owned particles' rho and factors, the ghosts' rho (one round), their factors, Eq. (5)."""
+def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, timers):
+    """The owned particles' rho and factors, the ghosts' rho (one round), their factors, Eq. (5).
+    ``mirror`` (``sw.mirror``) as an argument of its own: numba prunes its branches before typing, so a
+    block without such walls compiles none of their passes (a field of ``sw`` would type them)."""
     t0 = wtime()
     n, n_own = lst.n, parts.n_own
     start = np.int64(0)  # not the literal 0: one version of the passes for both calls
-    if len(sw.mirror):
+    if len(mirror):
         walls.renormalise(lst, parts, c, sw)
     if len(threaded):
         momentum.particle_factors(lst, parts, c, sw, start, n_own)
@@ -156,7 +158,7 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
     else:
         momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
         momentum.momentum_serial(lst, parts, c, sw)
-    if len(sw.mirror):
+    if len(mirror):
         walls.forces(lst, parts, c, sw)
     t3 = wtime()
     timers[DENSITY] += t1 - t0
@@ -171,7 +173,7 @@ def evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
     t0 = wtime()
     _density(lst, parts, c, sw, gather, threaded)
     timers[DENSITY] += wtime() - t0
-    return _after_density(plan, lst, parts, c, sw, gather, threaded, timers)
+    return _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, timers)
 
 
 @njit(cache=True)
@@ -240,7 +242,7 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
         control[0].stop_out = flags_all[1]
     if flags_all[2] != 0.0:
         return REBUILD
-    if _after_density(plan, lst, parts, c, sw, gather, threaded, timers):
+    if _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, timers):
         return MPI_ERROR
     return -1
 
