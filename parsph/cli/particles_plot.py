@@ -160,8 +160,10 @@ def figure(snap, field, limits, heights=None):
     # round markers about 0.8 lattice spacing wide (points^2), from the axes' size in points
     bbox = ax.get_window_extent().transformed(fig.dpi_scale_trans.inverted())
     spacing = np.sqrt((xhi - xlo) * Ly / max(1, len(x)))  # the side of the area per particle
-    if layer:  # most of the box is empty above a layer: the lattice's row spacing
-        gaps = np.diff(np.unique(np.round(y, 12)))
+    if layer:  # most of the box is empty above a layer: the lattice's row spacing, from the walls' rows where
+        # there are some (they stay on the lattice; grains that moved give every y a row of its own)
+        rows = y[k != GRAIN] if (k != GRAIN).any() else y
+        gaps = np.diff(np.unique(np.round(rows, 12)))
         gaps = gaps[gaps > 1e-3 * Ly]   # rows a hair apart (fluid and wall, drifted by round-off) are one row
         spacing = float(np.median(gaps)) if gaps.size else spacing
     side = 72.0 * bbox.width * spacing / (across[1] - across[0])
