@@ -423,6 +423,63 @@ def test_a_failed_solve_is_one_line_naming_step_and_time():
     assert reporting(MPI.COMM_SELF, failing) == EXIT_GUARD
 
 
+class _Singular:
+    """A Darcy whose every solve raises what darcy.Darcy raises where LAPACK or SuperLU finds no answer; what
+    a solve starts from is the real one's."""
+
+    def __init__(self, real):
+        self.real = real
+
+    def start(self):
+        return self.real.start()
+
+    def solve(self, K, V):
+        raise darcy.SolveFailed("the pressure is not finite")
+
+
+@pytest.mark.parametrize("integrator, back", [("paper", 0), ("midpoint", 1)])
+def test_a_failed_solve_writes_its_whole_state_as_a_restart_point(tmp_path, integrator, back):
+    """The solve fails at the next evaluation after 3 steps: with Eqs. (6)-(7) at the end of step 4, whose
+    state is whole; with the midpoint scheme at step 4's middle, so the state written is step 4's start (3).
+    The file is that state bit for bit (against a run that did not fail), and a restart from it continues as
+    the run that did not fail does, bit for bit (the gas stage's start kept with it)."""
+    import h5py
+    from parsph.errors import SolveError
+    from parsph.output import Output, read_state
+    sets = ['gas.flow="solved"', f'numerics.integrator="{integrator}"', "output.t_end=0.01", "output.times=[0.01]",
+            "output.snapshots=false"]
+    cfg = layers.load(layers.BED, sets)
+    whole = Simulation(cfg, MPI.COMM_SELF)
+    states = {}
+    for k in range(1, 7):
+        whole.take_steps(1)
+        states[whole.step] = {key: v.copy() for key, v in whole.particles().items()}
+    failing = Simulation(cfg, MPI.COMM_SELF)
+    failing.take_steps(3)
+    failing.gas.darcy = _Singular(failing.gas.darcy)
+    out = Output(MPI.COMM_SELF, str(tmp_path), "s", cfg, cfg.n_particles)
+    with pytest.raises(SolveError) as e:
+        failing.run(output=out)
+    at = 4 - back
+    assert f"a restart point written at step {at}" in str(e.value) and "\n" not in str(e.value)
+    path = tmp_path / "s_0000.h5"
+    snap = read_state(str(path))
+    assert int(snap["attrs"]["step"]) == at
+    with h5py.File(path, "r") as f:
+        written = {key: f[f"particles/{key}"][()] for key in ("id", "position", "velocity")}
+    order = np.argsort(written["id"])
+    ref = states[at]
+    ref_order = np.argsort(ref["id"])
+    for key in ("position", "velocity"):
+        assert np.array_equal(written[key][order], ref[key][ref_order]), key
+    resumed = Simulation(cfg, MPI.COMM_SELF, snap)
+    resumed.take_steps(6 - at)
+    got = resumed.particles()
+    g_order, r_order = np.argsort(got["id"]), np.argsort(states[6]["id"])
+    for key in ("position", "velocity"):
+        assert np.array_equal(got[key][g_order], states[6][key][r_order]), key
+
+
 # ---- the preconditioned solves: an earlier K's factor, warm started -------------------------------------
 @pytest.mark.parametrize("periodic", [False, True])
 def test_preconditioned_solves_agree_with_factorising_ones(periodic):

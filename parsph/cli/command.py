@@ -11,8 +11,9 @@ The commands live in :mod:`parsph.cli.run` (run), :mod:`parsph.cli.converge`
 :mod:`parsph.cli.exits`.
 
 Exit codes: 0 success; 1 ``check`` above tolerance or an unexpected error;
-2 bad input (run file, options, output path); 3 a run-time check failed;
-130 / 143 stopped by SIGINT / SIGTERM after writing a restart point.
+2 bad input (run file, options, output path); 3 a run-time check failed, or the gas solve
+(after writing the state it failed on as a restart point); 130 / 143 stopped by SIGINT / SIGTERM
+after writing a restart point.
 """
 import argparse
 import sys

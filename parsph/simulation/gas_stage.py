@@ -88,10 +88,12 @@ class GasStage:
         self.rates = np.zeros(0)
         self.no_stream = np.zeros(3)
         self.before = (None, None, (None, None))  # what the last call started from (j, solved_at, darcy's start)
+        self.earlier = self.before                # and the call before it
         ps.add_field("flux")
 
     def __call__(self, ps, step, t):
         """ps.flux of the owned particles for the state at ``step``, ``t`` (a solve where one is due)."""
+        self.earlier = self.before
         self.before = (self.j, self.solved_at, self.darcy.start())
         due = self.j is None or self.every == 1 or (step % self.every == 0 and step != self.solved_at)
         if due:
@@ -120,6 +122,11 @@ class GasStage:
         if factor_K is not None:
             out["start/factor_K"] = factor_K
         return out
+
+    def step_back(self):
+        """The call before the last becomes the last (:meth:`fields` keeps what it started from): a step whose
+        midpoint evaluation failed is written as its start's state, whose evaluation a restart makes again."""
+        self.before = self.earlier
 
     def restore(self, grid):
         """Start from an output's /grid (:meth:`fields`): the state before its last call, which the restart

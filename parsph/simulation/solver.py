@@ -24,7 +24,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from parsph.errors import Interrupted
+from parsph.errors import Interrupted, SolveError
 from parsph.output import read_grid
 from parsph.parallel.collectives import Collectives
 from parsph.parallel.slab_ring import SlabRing
@@ -156,11 +156,23 @@ class Simulation:
         self.timers["integrate"] += self.clock() - t0
         if self.integrator.midpoint:
             self.keeper.bad = bad
-            self.compute_rates()
+            try:
+                self.compute_rates()
+            except SolveError:
+                self._back_to_step_start()
+                raise
             bad = self._correct(dt)
         self._count_step(dt, bad)
         self._fresh = False
         self.keeper.stop = stop_requested() if stop_requested is not None else 0
+
+    def _back_to_step_start(self):
+        """The midpoint evaluation's gas solve failed: the owned particles back at the step's start (the
+        predictor kept it), the gas stage at its start's call, so that what is written is that whole state."""
+        ps, n = self.ps, self.ps.n_own
+        ps.pos[:n] = ps.pos0[:n]
+        ps.vel[:n] = ps.vel0[:n]
+        self.gas.step_back()
 
     def _correct(self, dt):
         """The midpoint integrator's second half (the rates at the midpoint are computed)."""
@@ -238,8 +250,25 @@ class Simulation:
         timeline = self.timeline
         pending = timeline.pending_outputs()
         ticker = Ticker(self, progress)
-        if not self._fresh:
-            self.compute_rates()
+        try:
+            if not self._fresh:
+                self.compute_rates()
+            self._steps_and_events(timeline, pending, ticker, output, stop_requested, observe, last_step)
+        except SolveError as e:  # raised on every rank alike
+            raise self._restart_point_at(e, output) from None
+        self.wall_time = time.perf_counter() - self.loop_started
+        return self
+
+    def _restart_point_at(self, error, output):
+        """A failed gas solve: the whole state it failed on (a step's end, or the start of the step whose
+        midpoint it was) written as a restart point, and the error saying so."""
+        if output is None:
+            return SolveError(f"{error}; the last output is the restart point")
+        output(self.frame(True), snapshot=True)
+        return SolveError(f"{error}; a restart point written at step {self.step}, t = {self.t:.6g} s")
+
+    def _steps_and_events(self, timeline, pending, ticker, output, stop_requested, observe, last_step):
+        """The loop of :meth:`_run_loop` from a state whose rates are computed."""
         while True:
             stop = self.stop
             self._write_due(pending, output)
@@ -254,8 +283,6 @@ class Simulation:
                 self._stop_at_restart_point(output, stop)
             self._to_next_event(pending, timeline.most_steps(observe, last_step), stop_requested)
             ticker.tick()
-        self.wall_time = time.perf_counter() - self.loop_started
-        return self
 
     def _write_due(self, pending, output):
         """Every output whose time the state has reached, taken off ``pending``."""
