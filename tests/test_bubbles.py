@@ -197,3 +197,65 @@ def test_check_of_a_bed_at_minimum_fluidisation(tmp_path):
     code, out, err = run_cli("run", runfile, "--out", tmp_path / "late", *sets(["checks.settle=1.0",
                                                                                 "output.t_end=1.0"]))
     assert code == 2 and err.count("\n") == 1 and "checks.settle" in err, err
+
+
+# ---- in 3-D ----------------------------------------------------------------------------------------------
+def ball(shape, centre, r, inside=0.0, outside=0.6):
+    """theta on a grid of cells 1 (periodic along y and z): ``inside`` within r of ``centre``."""
+    axes = np.meshgrid(*[np.arange(n) + 0.5 for n in shape], indexing="ij")
+    d2 = (axes[0] - centre[0]) ** 2
+    for a, n, c in zip(axes[1:], shape[1:], centre[1:]):
+        d2 = d2 + ((a - c + n / 2) % n - n / 2) ** 2
+    return np.where(d2 < r * r, inside, outside)
+
+
+def test_a_ball_is_one_bubble_of_its_volume_and_centre_across_the_periodic_z():
+    shape, h = (30, 24, 20), 0.002
+    here = bubbles.find(ball(shape, (12.0, 10.0, 10.0), 6.0), h, h, 0.2, hz=h)
+    assert len(here) == 1
+    b = here[0]
+    assert b.dim == 3 and b.area == pytest.approx(np.count_nonzero(ball(shape, (12.0, 10.0, 10.0), 6.0) < 0.2) * h ** 3,
+                                                  rel=1e-12)
+    assert b.diameter == pytest.approx(2 * 6.0 * h, rel=0.03)        # the voxelated sphere
+    assert (b.x, b.y, b.z) == pytest.approx((12.0 * h, 10.0 * h, 10.0 * h), rel=1e-12)
+    across = bubbles.find(ball(shape, (12.0, 10.0, 1.0), 6.0), h, h, 0.2, hz=h)
+    assert len(across) == 1 and across[0].area == b.area
+    assert (across[0].x, across[0].y, across[0].z) == pytest.approx((12.0 * h, 10.0 * h, 1.0 * h), abs=1e-12)
+    walled_z = bubbles.find(ball(shape, (12.0, 10.0, 1.0), 6.0), h, h, 0.2, periodic=(False, True, False), hz=h)
+    assert len(walled_z) == 2
+
+
+def test_in_3d_a_bubble_needs_two_cells_along_every_axis():
+    theta = np.full((12, 12, 12), 0.6)
+    theta[3:5, 3:5, 3] = 0.0        # 4 cells, one layer: below 2 x 2 x 2
+    theta[7:9, 7:9, 7:9] = 0.0      # 8 cells
+    assert [b.area for b in bubbles.find(theta, 1.0, 1.0, 0.2, hz=1.0)] == [8.0]
+
+
+def test_a_rising_ball_is_matched_with_its_velocity():
+    shape, h, dt = (40, 20, 20), 0.001, 0.01
+    before = bubbles.find(ball(shape, (14.0, 10.0, 10.0), 5.0), h, h, 0.2, hz=h)
+    after = bubbles.find(ball(shape, (17.0, 10.0, 10.0), 5.0), h, h, 0.2, hz=h)
+    (pair,) = bubbles.match(before, after, dt, shape)
+    assert pair.velocity == pytest.approx(3 * h / dt, rel=1e-12)
+
+
+def test_gas_through_a_spherical_void_is_three_pi_U_r_squared():
+    """Reference 8 in 3-D: the sphere's closed form (Maxwell's: the flux inside a sphere of permeability ratio
+    kappa is 3 kappa / (kappa + 2) U) at kappa -> infinity through its cross-section pi r^2; then a 3-D grid
+    solve past a void of radius 5 cells in a bed fed at U (periodic across y and z, 40 x 28 x 28 cells): the
+    gas through the bubble's equator within 6% of it (the voxelated sphere at 5 cells)."""
+    U, a, kappa = 0.2, 0.01, 1e12
+    assert bubbling.throughflow(U, a, 3) == pytest.approx(math.pi * a * a * 3 * kappa / (kappa + 2) * U, rel=1e-9)
+    shape, h, r = (40, 28, 28), 0.002, 5.0
+    theta = ball(shape, (20.0, 14.0, 14.0), r)
+    K = np.where(theta < 0.2, 1e3, 1.0)
+    sol = darcy.solve(K, np.zeros(shape + (3,)), h, h,
+                      (darcy.Side("flux", U), darcy.Side("pressure", 0.0)), None, hz=h)
+    (b,) = bubbles.find(theta, h, h, 0.2, periodic=(False, True, True), hz=h)
+    q = bubbles.throughflow(b, sol.centred()[..., 0], h, 0.0, h)
+    assert q == pytest.approx(bubbling.throughflow(U, 0.5 * b.diameter, 3), rel=0.06)
+
+
+def test_rise_velocity_in_3d():
+    assert bubbling.rise_velocity(0.04, -9.81, 3) == pytest.approx(0.711 * math.sqrt(9.81 * 0.04), rel=1e-15)

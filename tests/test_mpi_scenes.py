@@ -106,7 +106,7 @@ def test_scene_bit_for_bit_on_several_ranks(scene):
 # ---- restart across rank counts -----------------------------------------------------------------------
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.parametrize("scene", ["couette_3d", "periodic_box", "box_gas", "sedimentation", "fluidized_bed",
-                                   "fluidized_bed_solved"])
+                                   "fluidized_bed_solved", "fluidized_bed_solved_3d"])
 def test_restart_across_rank_counts(scene, mpi_tmp_path):
     """A snapshot halfway, written on P ranks and on 1, continued on the other count: both end bit for
     bit where the uninterrupted runs end (which agree with each other)."""

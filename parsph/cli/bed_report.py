@@ -9,17 +9,20 @@ against the bed's buoyant weight per unit area, within :data:`TOL_DROP`, where t
 after an eruption, and whose free top rests on the grains below, is not a bubbling bed's average). Reported beside it, for information
 (loose checks, :mod:`parsph.physics.bubbling`): the bubbles on each output's grid (:mod:`parsph.gas.bubbles`,
 cells with theta below ``checks.bubble_theta``), their rise velocity between consecutive outputs against
-0.5 sqrt(g D), the gas through them in their frame against Davidson's 4 U_mf r_b, their size against height
-and the bed's expansion.
+0.5 sqrt(g D) (0.711 sqrt(g D) in 3-D), the gas through them in their frame against Davidson's 4 U_mf r_b
+(3 pi U_mf r_b^2 in 3-D), their size against height and the bed's expansion. In 3-D the weight is per unit
+floor area (L_y L_z).
 """
 from dataclasses import dataclass, field
 import math
 
 import numpy as np
 
+from parsph.gas.bubbles import MIN_CELLS
+
 TOL_DROP = 0.01      # the time-averaged pressure drop against the buoyant weight, relative
 MIN_WINDOW = 1.0     # reference 8's average: over at least 1 s of bubbling [s]; a shorter window is reported only
-RISE_EXPECTED = 0.25  # reference 8: a 2-D bubble rises at 0.5 sqrt(g D) within about this (reported, not judged)
+RISE_EXPECTED = 0.25  # reference 8: a bubble rises at c sqrt(g D) within about this (reported, not judged)
 
 
 def bed_run(p):
@@ -110,17 +113,19 @@ def measure(path, cfg):
             t = float(f.attrs["time"])
             gr = f["grid"]
             theta, p, u_gx = gr["theta"][()], gr["p"][()], gr["u_g"][()][..., 0]
-            hx, hy = (float(c) for c in gr.attrs["cell"])
+            cell = [float(c) for c in gr.attrs["cell"]]
             kind = f["particles/kind"][()]
             fluid = kind == GRAIN
             x = f["particles/position"][()][fluid, 0]
             m = f["particles/mass"][()][fluid]
-        weight = float(m.sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / cfg.Ly
-        found = bubbles.find(theta, hx, hy, threshold, periodic=(False, not cfg.sides))
+        hx, hy, hz = cell[0], cell[1], (cell[2] if theta.ndim == 3 else 1.0)
+        floor = cfg.Ly * (cfg.Lz if theta.ndim == 3 else 1.0)  # per unit floor area (2-D: per unit depth)
+        weight = float(m.sum()) * g * (1.0 - cfg.gas.rho / cfg.rho_s) / floor
+        found = bubbles.find(theta, hx, hy, threshold, periodic=(False, not cfg.sides), hz=hz)
         frame = Frame(t, floor_drop(p), weight, mass_quantiles(x, m), found)
         if before is not None and frame.t > before.t:
             for pair in bubbles.match(before.bubbles, found, frame.t - before.t, theta.shape):
-                bed.pairs.append((frame.t, pair, bubbles.throughflow(pair.after, u_gx, hy, pair.velocity)))
+                bed.pairs.append((frame.t, pair, bubbles.throughflow(pair.after, u_gx, hy, pair.velocity, hz)))
         bed.frames.append(frame)
         before = frame
     bed.frames.sort(key=lambda f: f.t)
@@ -165,7 +170,8 @@ def report(path, cfg, tol=TOL_DROP, rows=20):
              f"{n.U:.4g} m/s = {n.U / n.U_mf:.3g} U_mf (Ergun at theta0: {n.U_mf:.4g} m/s), H0 = {n.H0 * 1e3:.4g} mm",
              f"the pressure drop across the bed (p' at the floor) over its buoyant weight per unit area W, averaged in "
              f"time over the outputs from t = {bed.settle:g} s; tolerance {tol * 100:g}%",
-             f"bubbles: connected cells with theta < {threshold:g}, at least 4, not open to the gas above the bed",
+             f"bubbles: connected cells with theta < {threshold:g}, at least {MIN_CELLS[cfg.dim]}, not open to the gas "
+             "above the bed",
              f"{'t [s]':>10} {'drop/W':>8} {'h50 [mm]':>9} {'h95 [mm]':>9} {'bubbles':>8} {'D mean [mm]':>12} "
              f"{'D max [mm]':>11}"]
     step = max(1, len(bed.frames) // rows)
@@ -194,15 +200,16 @@ def report(path, cfg, tol=TOL_DROP, rows=20):
                                               "for: reported, not judged"))
     pairs = [(t, pr, q) for t, pr, q in bed.pairs if t >= bed.settle and pr.detached]
     if pairs:
-        rise = np.array([pr.velocity / bubbling.rise_velocity(pr.diameter, g) for _, pr, _ in pairs])
-        flow = np.array([q / bubbling.throughflow(n.U_mf, 0.5 * pr.diameter) for _, pr, q in pairs])
+        rise = np.array([pr.velocity / bubbling.rise_velocity(pr.diameter, g, cfg.dim) for _, pr, _ in pairs])
+        flow = np.array([q / bubbling.throughflow(n.U_mf, 0.5 * pr.diameter, cfg.dim) for _, pr, q in pairs])
         D = np.array([pr.diameter for _, pr, _ in pairs]) * 1e3
         med = float(np.median(rise))
         lines.append(f"rise velocity: {len(pairs)} bubbles matched between consecutive outputs (D {D.min():.3g} to "
-                     f"{D.max():.3g} mm, clear of the floor's row of cells); u_b / (0.5 sqrt(g D)): "
+                     f"{D.max():.3g} mm, clear of the floor's row of cells); u_b / ({bubbling.RISE_CONSTANT[cfg.dim]:g} sqrt(g D)): "
                      f"{_quartiles(rise)}" + ("" if abs(med - 1) <= RISE_EXPECTED else
                                               f" (outside the expected {RISE_EXPECTED * 100:g}%)"))
-        lines.append(f"gas through a bubble in its frame / Davidson's 4 U_mf r_b: {_quartiles(flow)}")
+        lines.append(f"gas through a bubble in its frame / Davidson's "
+                     f"{'4 U_mf r_b' if cfg.dim == 2 else '3 pi U_mf r_b^2'}: {_quartiles(flow)}")
         top = max(f.heights[4] for f in w)
         edges = np.linspace(0.0, top, 5)
         x = np.array([pr.after.x for _, pr, _ in pairs])

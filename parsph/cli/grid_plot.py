@@ -18,7 +18,7 @@ GRID_FIELDS = {"theta": "theta (grains' volume fraction) [1]", "p": "p' (gas pre
 
 
 def grid_outputs(path, times=None):
-    """(time, file, {field: array}, cell (h_x, h_y), scene) of the outputs with a grid, in time order."""
+    """(time, file, {field: array}, cell (h_x, h_y[, h_z]), scene) of the outputs with a grid, in time order."""
     import h5py
     from parsph.output import output_files
     found = []
@@ -35,9 +35,16 @@ def grid_outputs(path, times=None):
 
 
 def draw(ax, row, field, limits):
-    """The cells of one output on ``ax``, upright (y across, x up), mm; returns the mesh."""
-    t, _, fields, (hx, hy), scene = row
-    values = fields[field]                      # (n_x, n_y): x the height
+    """The cells of one output on ``ax``, upright (y across, x up), mm; returns the mesh. A 3-D grid is drawn
+    in its middle layer of cells across z."""
+    t, _, fields, cell, scene = row
+    hx, hy = cell[:2]
+    values = fields[field]                      # (n_x, n_y[, n_z]): x the height
+    where = ""
+    if values.ndim == 3:
+        k = values.shape[2] // 2
+        values = values[:, :, k]
+        where = f" (z = {(k + 0.5) * cell[2] * 1e3:.3g} mm)"
     nx, ny = values.shape
     y_edges = np.arange(ny + 1) * hy * 1e3
     x_edges = np.arange(nx + 1) * hx * 1e3
@@ -46,7 +53,7 @@ def draw(ax, row, field, limits):
     ax.set_aspect("equal")
     ax.set_xlabel("y (periodic) [mm]")
     ax.set_ylabel("x (height, gravity down) [mm]")
-    ax.set_title(f"{scene}: {field} on the gas grid, t = {t:.4g} s", fontsize=9)
+    ax.set_title(f"{scene}: {field} on the gas grid{where}, t = {t:.4g} s", fontsize=9)
     return mesh
 
 

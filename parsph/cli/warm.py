@@ -51,7 +51,9 @@ TINY_3D = ["domain.Lz=0.0006"]
 # run files whose solved gas needs a wider tiny box: 3 cells of 2 mm across y, with their seed's wavelength and
 # the jet's orifice inside it
 TINY_WIDER = {"bubbling_bed.toml": ["domain.Ly=0.006", "perturbation.wavelength_y=0.006", "checks.settle=0.0"],
-              "single_bubble.toml": ["domain.Ly=0.006", "gas.jet=[0.002, 0.004, 1.0, 0.05]"]}
+              "single_bubble.toml": ["domain.Ly=0.006", "gas.jet=[0.002, 0.004, 1.0, 0.05]"],
+              "bubbling_bed_3d.toml": ["domain.Ly=0.012", "domain.Lz=0.012", "perturbation.wavelength_y=0.012",
+                                       "checks.settle=0.0"]}
 RUN_DIR = Path(__file__).resolve().parents[2] / "run"
 # scripts/main.sh: the paper case on 2 ranks, one thread each (a case's fourth field: its ranks, under mpirun;
 # default 1, in process); on 2 ranks 50 steps, so that the neighbour list is rebuilt and particles migrate
@@ -88,10 +90,12 @@ SUITE = [
     ("fluidized_bed.toml", ["numerics.dt=5e-5"], 1),
     ("fluidized_bed.toml", ["numerics.dt=5e-5"], 2),
     ("fluidized_bed.toml", ["numerics.dt=1e-4", "numerics.integrator=midpoint"], 1),
-    # the solved gas (the Python path's passes, the grid's loops): scene_ranks' bed (1 thread and 2), the voidage
-    # waves of test_solved_gas_runs (a box periodic along gravity)
+    # the solved gas (the Python path's passes, the grid's loops): scene_ranks' bed (1 thread and 2) and its 3-D
+    # bed, the voidage waves of test_solved_gas_runs (a box periodic along gravity)
     ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 1),
     ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 2),
+    ("fluidized_bed.toml", ["scene.dim=3", "body_force.g=[-9.81, 0.0, 0.0]", "domain.Lz=0.0012", "numerics.dt=5e-5",
+                            'gas.flow="solved"', "gas.cell=0.0004"], 1),
     ("voidage_waves.toml", ['gas.flow="solved"'], 1),
 ]
 QUEUE = "PARSPH_WARM_QUEUE"  # a worker's shared folder: the lock, the next case, the results

@@ -2,11 +2,13 @@
 lies below a threshold (:func:`find`), and their motion between two grids (:func:`match`). Serial numpy and
 scipy.ndimage on a grid an output holds; no MPI.
 
-A bubble is a 4-connected set of cells with theta < threshold, joined across a periodic axis (y; x in a box
-periodic along gravity), of at least :data:`MIN_CELLS` cells (a smaller set is below what the grid resolves), not touching the grid's
-top row where that is open (a set that does is the clear gas above the bed, or a bubble that has erupted).
-Its area is the cells' area, its equivalent diameter D = sqrt(4 area / pi) (2-D), its centroid the cells'
-mean centre (unwrapped across a periodic axis at the widest gap between its cells).
+A bubble is a set of cells with theta < threshold connected through their faces (4-connected in 2-D,
+6-connected in 3-D), joined across a periodic axis (y, and z in 3-D; x in a box periodic along gravity), of at
+least :data:`MIN_CELLS` cells (2 x 2; 2 x 2 x 2 in 3-D: a smaller set is below what the grid resolves), not
+touching the grid's top row where that is open (a set that does is the clear gas above the bed, or a bubble
+that has erupted). Its size is the cells' area (2-D, per unit depth) or volume (3-D), its equivalent diameter
+D = sqrt(4 area / pi) or (6 volume / pi)^(1/3), its centroid the cells' mean centre (unwrapped across a
+periodic axis at the widest gap between its cells).
 """
 from dataclasses import dataclass
 import math
@@ -14,20 +16,27 @@ import math
 import numpy as np
 from scipy import ndimage
 
-MIN_CELLS = 4          # a bubble smaller than 2 x 2 cells is not resolved by the grid
+MIN_CELLS = {2: 4, 3: 8}  # a bubble smaller than 2 x 2 (x 2) cells is not resolved by the grid
 MATCH_AREA = 1.5       # a pair whose areas differ by more than this factor split or merged: no rise velocity
 
 
 @dataclass(frozen=True)
 class Bubble:
-    area: float        # [m^2] per unit depth
+    area: float        # [m^2] per unit depth in 2-D; in 3-D its volume [m^3]
     x: float           # centroid along gravity's axis (height above the floor) [m]
     y: float           # centroid across [m], in [0, Ly)
-    cells: tuple       # (rows, columns): the cells' indices (numpy arrays)
+    cells: tuple       # the cells' indices per axis (numpy arrays)
+    z: float = None    # centroid across z [m], in [0, Lz) (3-D)
+
+    @property
+    def dim(self):
+        return len(self.cells)
 
     @property
     def diameter(self):
-        """The equivalent diameter D = sqrt(4 area / pi) [m]."""
+        """The equivalent diameter [m]: D = sqrt(4 area / pi) in 2-D, (6 volume / pi)^(1/3) in 3-D."""
+        if self.dim == 3:
+            return (6.0 * self.area / math.pi) ** (1.0 / 3.0)
         return math.sqrt(4.0 * self.area / math.pi)
 
 
@@ -63,11 +72,15 @@ def _join(labels, periodic):
     return roots[labels]
 
 
-def find(theta, hx, hy, threshold, periodic=(False, True), open_top=None):
-    """The bubbles of a grid: theta (nx, ny) of cells hx x hy [m] (x along gravity's axis, from the floor),
-    ``periodic`` per axis; ``open_top`` (default: x not periodic) leaves out the sets that touch the top row.
-    Returns a list of :class:`Bubble`, largest first."""
+def find(theta, hx, hy, threshold, periodic=(False, True), open_top=None, hz=None):
+    """The bubbles of a grid: theta (nx, ny) of cells hx x hy [m], or (nx, ny, nz) of hx x hy x ``hz`` (x along
+    gravity's axis, from the floor), ``periodic`` per axis (z: periodic unless said); ``open_top`` (default: x
+    not periodic) leaves out the sets that touch the top row. Returns a list of :class:`Bubble`, largest
+    first."""
     theta = np.asarray(theta)
+    dim = theta.ndim
+    h = (hx, hy, hz)[:dim]
+    periodic = tuple(periodic) + (True,) * (dim - len(periodic))
     labels, n = ndimage.label(theta < threshold)
     if n == 0:
         return []
@@ -75,14 +88,14 @@ def find(theta, hx, hy, threshold, periodic=(False, True), open_top=None):
     if (not periodic[0]) if open_top is None else open_top:
         labels[np.isin(labels, np.unique(labels[-1]))] = 0
     out = []
-    nx, ny = theta.shape
     for lab in np.unique(labels[labels > 0]):
-        i, j = np.nonzero(labels == lab)
-        if i.size < MIN_CELLS:
+        idx = np.nonzero(labels == lab)
+        if idx[0].size < MIN_CELLS[dim]:
             continue
-        ci = _unwrapped_mean(i, nx) if periodic[0] else float(i.mean())
-        cj = _unwrapped_mean(j, ny) if periodic[1] else float(j.mean())
-        out.append(Bubble(i.size * hx * hy, (ci + 0.5) * hx, ((cj + 0.5) * hy) % (ny * hy), (i, j)))
+        centre = [((_unwrapped_mean(i, m) if wraps else float(i.mean())) + 0.5) * ha
+                  for i, m, wraps, ha in zip(idx, theta.shape, periodic, h)]
+        out.append(Bubble(idx[0].size * math.prod(h), centre[0], centre[1] % (theta.shape[1] * hy), idx,
+                          None if dim == 2 else centre[2] % (theta.shape[2] * hz)))
     out.sort(key=lambda b: -b.area)
     return out
 
@@ -106,7 +119,7 @@ class Pair:
 
 
 def match(before, after, dt, shape):
-    """Pairs of bubbles of two grids dt [s] apart (``shape`` the grids' (nx, ny)): each bubble of ``after``
+    """Pairs of bubbles of two grids dt [s] apart (``shape`` the grids'): each bubble of ``after``
     with the bubble of ``before`` it overlaps most, where that one overlaps it most too and their areas
     differ by less than :data:`MATCH_AREA` (else it split or merged). Needs outputs close enough that a
     bubble moves less than its size between them."""
@@ -134,12 +147,14 @@ def match(before, after, dt, shape):
     return pairs
 
 
-def throughflow(bubble, u_gx, hy, u_b):
-    """The gas through a bubble in its own frame, per unit depth [m^2/s]: the sum over the bubble's cells in
-    its widest row (its equator) of (u_g,x - u_b) hy. In the bubble eps = 1, so that is the gas crossing the
-    equator relative to the bubble: Davidson's 4 U_mf r_b in 2-D (reference 6 with kappa -> infinity).
-    u_gx: the grid's gas velocity along x (nx, ny) [m/s]; u_b the bubble's rise velocity [m/s]."""
-    rows, cols = bubble.cells
+def throughflow(bubble, u_gx, hy, u_b, hz=1.0):
+    """The gas through a bubble in its own frame [m^2/s per unit depth in 2-D; m^3/s in 3-D]: the sum over
+    the bubble's cells in its widest layer across x (its equator) of (u_g,x - u_b) times the cell's face (hy;
+    hy hz in 3-D). In the bubble eps = 1, so that is the gas crossing the equator relative to the bubble:
+    Davidson's 4 U_mf r_b in 2-D, 3 pi U_mf r_b^2 in 3-D (:func:`parsph.physics.bubbling.throughflow`).
+    u_gx: the grid's gas velocity along x [m/s]; u_b the bubble's rise velocity [m/s]."""
+    rows = bubble.cells[0]
     row = int(np.bincount(rows).argmax())
     sel = rows == row
-    return float(np.sum(u_gx[row, cols[sel]] - u_b) * hy)
+    at = (np.full(int(sel.sum()), row),) + tuple(c[sel] for c in bubble.cells[1:])
+    return float(np.sum(u_gx[at] - u_b) * hy * (hz if bubble.dim == 3 else 1.0))

@@ -65,13 +65,17 @@ class Side:
 
 @dataclass
 class Solution:
-    p: np.ndarray    # p' per cell (nx, ny) [Pa]
-    jx: np.ndarray   # the mixture's flux along +x through the x-faces (nx + 1, ny) [m/s]
-    jy: np.ndarray   # along +y through the y-faces (nx, ny + 1) [m/s]
+    p: np.ndarray    # p' per cell (nx, ny[, nz]) [Pa]
+    jx: np.ndarray   # the mixture's flux along +x through the x-faces (nx + 1, ny[, nz]) [m/s]
+    jy: np.ndarray   # along +y through the y-faces (nx, ny + 1[, nz]) [m/s]
+    jz: np.ndarray = None  # along +z through the z-faces (nx, ny, nz + 1) [m/s] (3-D)
 
     def centred(self):
-        """j at the cell centres (nx, ny, 2): the mean of each cell's two faces along each axis."""
-        return np.stack([0.5 * (self.jx[:-1] + self.jx[1:]), 0.5 * (self.jy[:, :-1] + self.jy[:, 1:])], axis=-1)
+        """j at the cell centres (cells..., dim): the mean of each cell's two faces along each axis."""
+        parts = [0.5 * (self.jx[:-1] + self.jx[1:]), 0.5 * (self.jy[:, :-1] + self.jy[:, 1:])]
+        if self.jz is not None:
+            parts.append(0.5 * (self.jz[:, :, :-1] + self.jz[:, :, 1:]))
+        return np.stack(parts, axis=-1)
 
 
 @njit(cache=True, inline="always")
@@ -118,53 +122,79 @@ def _axis_faces(K, Vc, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
             out[i, j] = _face_v(K[a, j], K[b, j], Vc[a, j], Vc[b, j]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / h
 
 
-def _faces(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, jx, jy, p, drive):
-    """The mixture's flux through every x-face (jx) and y-face (jy); ``drive`` along x only."""
-    _axis_faces(K, V[:, :, 0], hx, kinds[0], kinds[1], vals_lo_x, vals_hi_x, p, jx, drive)
-    _axis_faces(K.T, V[:, :, 1].T, hy, kinds[2], kinds[3], vals_lo_y, vals_hi_y, p.T, jy.T, 0.0)
+def _faces(K, V, h, kinds, values, p, drive):
+    """The mixture's flux through every face along each axis, [jx, jy(, jz)] ((nx + 1, ny, nz), ...), from K,
+    p' (nx, ny, nz) and V (nx, ny, nz, dim); ``drive`` along x only. Each axis is :func:`_axis_faces` on the
+    arrays with that axis first and the others flattened (z periodic)."""
+    dim = V.shape[3]
+    out = []
+    for a in range(dim):
+        def first(f):
+            g = np.moveaxis(f, a, 0)
+            return np.ascontiguousarray(g).reshape(g.shape[0], -1)
+        n = K.shape[a]
+        j = np.zeros((n + 1, K.size // n))
+        lo, hi = (values[2 * a], values[2 * a + 1]) if a < 2 else (values[0], values[0])
+        kind_lo, kind_hi = (kinds[2 * a], kinds[2 * a + 1]) if a < 2 else (PERIODIC, PERIODIC)
+        _axis_faces(first(K), first(V[..., a]), h[a], kind_lo, kind_hi, lo, hi, first(p), j,
+                    drive if a == 0 else 0.0)
+        shape = list(np.moveaxis(K, a, 0).shape)
+        shape[0] += 1
+        out.append(np.moveaxis(j.reshape(shape), 0, a))
+    return out
 
 
 @njit(cache=True)
-def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, indptr, indices, data, rhs, pin,
-              drive):
+def _assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, indptr, indices, data, rhs,
+              pin, drive):
     """The matrix's values (on its fixed pattern ``indptr``, ``indices``, each row's columns sorted) and the
     right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f + given
-    fluxes) times their lengths, g = length K_f / distance; ``drive`` as in :func:`_faces`."""
-    nx, ny = K.shape
-    n = nx * ny
+    fluxes) times their areas, g = area K_f / distance; ``drive`` as in :func:`_axis_faces`. K (nx, ny, nz),
+    V (nx, ny, nz, dim); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
+    (j, k) flattened on an x side, (i, k) on a y side."""
+    nx, ny, nz = K.shape
+    n = nx * ny * nz
+    nsides = 6 if nz > 1 else 4
     data[:] = 0.0
     rhs[:] = 0.0
     for c in range(n):
-        i = c // ny
-        j = c - i * ny
+        i = c // (ny * nz)
+        j = (c // nz) % ny
+        k = c % nz
         row0 = indptr[c]
         row1 = indptr[c + 1]
-        for side in range(4):
+        for side in range(nsides):
             axis = side // 2
             up = side % 2 == 1          # the face on the + side of the cell
-            h = hx if axis == 0 else hy
-            length = hy if axis == 0 else hx
-            ii, jj = i, j
+            if axis == 0:
+                h, area = hx, hy * hz
+            elif axis == 1:
+                h, area = hy, hx * hz
+            else:
+                h, area = hz, hx * hy
+            ii, jj, kk = i, j, k
             inside = True
             if axis == 0:
                 ii = i + 1 if up else i - 1
                 if ii < 0 or ii >= nx:
                     inside = kinds[0] == PERIODIC
                     ii = ii % nx
-            else:
+            elif axis == 1:
                 jj = j + 1 if up else j - 1
                 if jj < 0 or jj >= ny:
                     inside = kinds[2] == PERIODIC
                     jj = jj % ny
+            else:
+                kk = (k + 1 if up else k - 1) % nz
             sign = 1.0 if up else -1.0
             if inside:
-                Kf = _harm(K[i, j], K[ii, jj])
-                g = length * Kf / h
-                vout = sign * _face_v(K[i, j], K[ii, jj], V[i, j, axis], V[ii, jj, axis])
+                Kf = _harm(K[i, j, k], K[ii, jj, kk])
+                g = area * Kf / h
+                vout = sign * _face_v(K[i, j, k], K[ii, jj, kk], V[i, j, k, axis], V[ii, jj, kk, axis])
                 if axis == 0:
                     vout += sign * drive * Kf
-                rhs[c] -= length * vout
-                nb = ii * ny + jj
+                rhs[c] -= area * vout
+                nb = (ii * ny + jj) * nz + kk
                 for q in range(row0, row1):
                     if indices[q] == c:
                         data[q] += g
@@ -173,13 +203,13 @@ def _assemble(K, V, hx, hy, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, i
             else:
                 kind = kinds[2 * axis + (1 if up else 0)]
                 if axis == 0:
-                    v = vals_hi_x[j] if up else vals_lo_x[j]
+                    v = vals_hi_x[j * nz + k] if up else vals_lo_x[j * nz + k]
                 else:
-                    v = vals_hi_y[i] if up else vals_lo_y[i]
+                    v = vals_hi_y[i * nz + k] if up else vals_lo_y[i * nz + k]
                 if kind == FLUX:
-                    rhs[c] -= sign * length * v
+                    rhs[c] -= sign * area * v
                 else:
-                    g = length * K[i, j] / (0.5 * h)
+                    g = area * K[i, j, k] / (0.5 * h)
                     for q in range(row0, row1):
                         if indices[q] == c:
                             data[q] += g
@@ -218,9 +248,10 @@ def band_order(nx, ny, periodic_y):
 
 
 class Darcy:
-    """The solve on one grid (nx x ny cells of hx x hy) with its sides: ``x_sides`` = (low, high)
-    :class:`Side` at x = 0 and x = nx hx, None for periodic; likewise ``y_sides``. Periodic axes need 3
-    cells or more (a cell's two neighbours along them are then distinct).
+    """The solve on one grid (nx x ny cells of hx x hy; x nz cells of hz along a periodic z in 3-D, nz > 1)
+    with its sides: ``x_sides`` = (low, high) :class:`Side` at x = 0 and x = nx hx, None for periodic;
+    likewise ``y_sides``. Periodic axes need 3 cells or more (a cell's two neighbours along them are then
+    distinct).
 
     ``mean_flux`` (x periodic): the mixture's flux through every cross-section of x, per unit length of it
     (a box periodic along gravity fed at U). Then p' = p~ - G x, p~ periodic: the solve for p~ with G = 0 and
@@ -228,13 +259,16 @@ class Darcy:
 
     ``reuse`` False: every solve factorises (the reference the preconditioned solves are measured against)."""
 
-    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None, reuse=True):
+    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None, reuse=True, nz=1, hz=1.0):
         if mean_flux is not None and x_sides is not None:
             raise ValueError("a mean flux drives a periodic x only")
         self.mean_flux = mean_flux
         self.gradient = 0.0  # G of the last solve: p' = p~ - G x
         self.nx, self.ny, self.hx, self.hy = nx, ny, hx, hy
-        for n, sides, name in ((nx, x_sides, "x"), (ny, y_sides, "y")):
+        self.nz, self.hz = nz, (hz if nz > 1 else 1.0)
+        self.dim = 3 if nz > 1 else 2
+        self.shape = (nx, ny) + ((nz,) if nz > 1 else ())
+        for n, sides, name in ((nx, x_sides, "x"), (ny, y_sides, "y"), (nz if nz > 1 else 3, None, "z")):
             if n < 3 and sides is None:
                 raise ValueError(f"a periodic axis needs 3 cells or more ({name}: {n})")
         none = Side("flux", np.zeros(1))
@@ -245,43 +279,50 @@ class Darcy:
                                PERIODIC if y_sides is None else KINDS[ys[0].kind],
                                PERIODIC if y_sides is None else KINDS[ys[1].kind]], np.int64)
         # own writable copies: one array type for every side (a read-only view would be a type of its own to the
-        # compiled loops: a version more of each)
+        # compiled loops: a version more of each); per face, (j, k) flattened on an x side, (i, k) on a y side
         self.values = [np.array(np.broadcast_to(np.asarray(s.values, float), (m,)))
-                       for s, m in ((xs[0], ny), (xs[1], ny), (ys[0], nx), (ys[1], nx))]
+                       for s, m in ((xs[0], ny * nz), (xs[1], ny * nz), (ys[0], nx * nz), (ys[1], nx * nz))]
         self.pin = not np.any(self.kinds == PRESSURE)
+        n = nx * ny * nz
         # the pattern: each cell and its neighbours across inner (or periodic) faces, columns sorted
-        idx = np.arange(nx * ny).reshape(nx, ny)
+        idx = np.arange(n).reshape(nx, ny, nz)
         cols = [idx]
-        if x_sides is None or nx > 1:
-            up, down = np.roll(idx, -1, 0), np.roll(idx, 1, 0)
-            if x_sides is not None:
+        for axis, sides in ((0, x_sides), (1, y_sides), (2, None)):
+            if axis == 2 and nz == 1:
+                continue
+            up, down = np.roll(idx, -1, axis), np.roll(idx, 1, axis)
+            if sides is not None:
                 up, down = up.copy(), down.copy()
-                up[-1], down[0] = idx[-1], idx[0]
+                last = [slice(None)] * 3
+                last[axis] = -1
+                first = [slice(None)] * 3
+                first[axis] = 0
+                up[tuple(last)], down[tuple(first)] = idx[tuple(last)], idx[tuple(first)]
             cols += [up, down]
-        up, down = np.roll(idx, -1, 1), np.roll(idx, 1, 1)
-        if y_sides is not None:
-            up, down = up.copy(), down.copy()
-            up[:, -1], down[:, 0] = idx[:, -1], idx[:, 0]
-        cols += [up, down]
-        rows = [np.unique(np.array([c.ravel()[k] for c in cols])) for k in range(nx * ny)]
-        self.indptr = np.concatenate([[0], np.cumsum([len(r) for r in rows])]).astype(np.int64)
-        self.indices = np.concatenate(rows).astype(np.int64)
+        rows = np.sort(np.stack([c.ravel() for c in cols], axis=1), axis=1)
+        keep = np.ones(rows.shape, bool)
+        keep[:, 1:] = rows[:, 1:] != rows[:, :-1]
+        self.indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))]).astype(np.int64)
+        self.indices = rows[keep].astype(np.int64)
         self.data = np.zeros(len(self.indices))
         # the band where x has sides (upper form: ab[w + r - c, c] = A[r, c] for c >= r, in the band's order)
-        self.order, w = band_order(nx, ny, y_sides is None)
+        if nz > 1:  # x slowest: half-width ny nz
+            self.order, w = np.arange(n), ny * nz
+        else:
+            self.order, w = band_order(nx, ny, y_sides is None)
         new = np.empty_like(self.order)
-        new[self.order] = np.arange(nx * ny)
-        rows_of = new[np.repeat(np.arange(nx * ny), np.diff(self.indptr))]
+        new[self.order] = np.arange(n)
+        rows_of = new[np.repeat(np.arange(n), np.diff(self.indptr))]
         cols_of = new[self.indices]
         self.upper = cols_of >= rows_of
         self.band_at = (w + rows_of[self.upper] - cols_of[self.upper], cols_of[self.upper])
         self.width = w
         self.banded = x_sides is not None and w <= BAND_MAX
         self.ordered = x_sides is not None and not self.banded  # SuperLU with minimum degree on A + A^T
-        self.rhs = np.zeros(nx * ny)
-        self.unit_rhs = np.zeros(nx * ny)
+        self.rhs = np.zeros(n)
+        self.unit_rhs = np.zeros(n)
         self.unit_data = np.zeros_like(self.data)
-        self.ab = np.zeros((w + 1, nx * ny)) if self.banded else None
+        self.ab = np.zeros((w + 1, n)) if self.banded else None
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
         self.factor_K = None
@@ -294,7 +335,7 @@ class Darcy:
         time): a flux side enters the right-hand side only, so the matrix and its factor stay."""
         if self.kinds[0] != KINDS["flux"]:
             raise ValueError("feed: the x = 0 side is not a flux side")
-        self.values[0] = np.array(np.broadcast_to(np.asarray(values, float), (self.ny,)))
+        self.values[0] = np.array(np.broadcast_to(np.asarray(values, float), (self.ny * self.nz,)))
 
     def start(self):
         """What the next solve starts from: the K whose factor preconditions it (None: it factorises) and the
@@ -307,12 +348,13 @@ class Darcy:
         self._factor, self.factor_K = None, None
         if factor_K is not None:
             K = np.ascontiguousarray(factor_K, float)
-            _assemble(K, np.zeros(K.shape + (2,)), self.hx, self.hy, self.kinds, *self.values, self.indptr,
-                      self.indices, self.data, np.zeros(self.nx * self.ny), self.pin, 0.0)
+            K3 = K.reshape(self.nx, self.ny, self.nz)
+            _assemble(K3, np.zeros(K3.shape + (self.dim,)), self.hx, self.hy, self.hz, self.kinds, *self.values,
+                      self.indptr, self.indices, self.data, np.zeros(K.size), self.pin, 0.0)
             self._factorise(K)
 
     def _factorise(self, K):
-        n = self.nx * self.ny
+        n = self.nx * self.ny * self.nz
         if self.banded:
             self.ab[:] = 0.0
             self.ab[self.band_at] = self.data[self.upper]
@@ -361,17 +403,19 @@ class Darcy:
         return None, MAX_ITER
 
     def solve(self, K, V):
-        """p' and the faces' fluxes for K (nx, ny) [m^2/(Pa s)] and V (nx, ny, 2) [m/s]."""
+        """p' and the faces' fluxes for K (nx, ny[, nz]) [m^2/(Pa s)] and V (nx, ny[, nz], dim) [m/s]."""
         K = np.ascontiguousarray(K, float)
         V = np.ascontiguousarray(V, float)
-        _assemble(K, V, self.hx, self.hy, self.kinds, *self.values, self.indptr, self.indices, self.data,
-                  self.rhs, self.pin, 0.0)
+        shape3 = (self.nx, self.ny, self.nz)
+        K3, V3 = K.reshape(shape3), V.reshape(shape3 + (self.dim,))
+        h = (self.hx, self.hy, self.hz)
+        _assemble(K3, V3, *h, self.kinds, *self.values, self.indptr, self.indices, self.data, self.rhs, self.pin,
+                  0.0)
         rhs = [self.rhs]
         if self.mean_flux is not None:  # the unit gradient's right-hand side, on the same matrix
-            _assemble(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, self.indptr, self.indices,
+            _assemble(K3, np.zeros_like(V3), *h, self.kinds, *self.values, self.indptr, self.indices,
                       self.unit_data, self.unit_rhs, self.pin, 1.0)
             rhs.append(self.unit_rhs)
-        shape = (self.nx, self.ny)
         with np.errstate(all="ignore"):
             ps = None
             if self.reuse and self._factor is not None and self.warm is not None:
@@ -393,21 +437,27 @@ class Darcy:
             self._factor = None
             raise SolveFailed("the pressure is not finite")
         self.warm = tuple(ps)
+        flat = self._grid_shape
         p = ps[0]
-        jx, jy = np.zeros((self.nx + 1, self.ny)), np.zeros((self.nx, self.ny + 1))
-        _faces(K, V, self.hx, self.hy, self.kinds, *self.values, jx, jy, p.reshape(shape), 0.0)
+        js = [flat(j) for j in _faces(K3, V3, h, self.kinds, self.values, p.reshape(shape3), 0.0)]
         if self.mean_flux is not None:
             p1 = ps[1]
-            jx1, jy1 = np.zeros_like(jx), np.zeros_like(jy)
-            _faces(K, np.zeros_like(V), self.hx, self.hy, self.kinds, *self.values, jx1, jy1, p1.reshape(shape), 1.0)
-            G = (self.mean_flux * self.ny - jx[0].sum()) / jx1[0].sum()
+            js1 = [flat(j) for j in _faces(K3, np.zeros_like(V3), h, self.kinds, self.values, p1.reshape(shape3),
+                                           1.0)]
+            G = (self.mean_flux * (self.ny * self.nz) - js[0][0].sum()) / js1[0][0].sum()
             if not np.isfinite(G):
                 raise SolveFailed("the mean pressure gradient is not finite")
-            p, jx, jy = p + G * p1, jx + G * jx1, jy + G * jy1
+            p = p + G * p1
+            js = [j + G * j1 for j, j1 in zip(js, js1)]
             self.gradient = float(G)
-        return Solution(p.reshape(shape), jx, jy)
+        return Solution(p.reshape(self.shape), *js)
+
+    def _grid_shape(self, j):
+        """A faces' array (…, nz) as the grid's own: without the z axis in 2-D."""
+        return j[:, :, 0] if self.nz == 1 else j
 
 
-def solve(K, V, hx, hy, x_sides=None, y_sides=None, mean_flux=None):
-    """One solve (:class:`Darcy` made for it: a factorisation)."""
-    return Darcy(K.shape[0], K.shape[1], hx, hy, x_sides, y_sides, mean_flux).solve(K, V)
+def solve(K, V, hx, hy, x_sides=None, y_sides=None, mean_flux=None, hz=1.0):
+    """One solve (:class:`Darcy` made for it: a factorisation); K (nx, ny) or, in 3-D, (nx, ny, nz)."""
+    nz = K.shape[2] if K.ndim == 3 else 1
+    return Darcy(K.shape[0], K.shape[1], hx, hy, x_sides, y_sides, mean_flux, nz=nz, hz=hz).solve(K, V)

@@ -1,10 +1,10 @@
 """The particles on the grid and the grid at the particles, with one set of weights both ways (cloud in
-cell: bilinear in the cell centres), so that the force the grid's fields put on the solids is the reaction
+cell: bilinear in the cell centres, trilinear in 3-D), so that the force the grid's fields put on the solids is the reaction
 of what they deposited (docs/physics.md, "The solved gas"). Besides theta and theta v, each particle
 deposits its drag resistance m C (C its drag rate, 1/s): the cell's R, whose inverse is the cell's K.
 
-A particle of volume m / rho_s adds w_c m / (rho_s A) to theta and that times v to theta v of the four
-cells c around it (A a cell's area, the w_c summing to 1). Where a cell would lie beyond a plate, its weight
+A particle of volume m / rho_s adds w_c m / (rho_s V) to theta and that times v to theta v of the four
+cells c around it (eight in 3-D: trilinear; V a cell's volume, its area in 2-D; the w_c summing to 1). Where a cell would lie beyond a plate, its weight
 folds onto the cell inside (the mirror image of the particle across the plate), so that theta does not fall
 off at a wall; likewise at side walls across y. y without side walls (and x without plates) wraps around the
 period.
@@ -54,41 +54,49 @@ def _axis_weights(x, h, n, length, bounded, period):
 
 
 @njit(cache=True)
-def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, hx, hy, Lx, Ly, walls, sides, ring, out, rate, rate_ref):
-    """Add the owned fluid particles' theta, theta v_x, theta v_y and, where ``rate`` has them, their drag
-    resistance m C / (A R_ref) and that times v_x, v_y (fixed point) to out[0..5] (shape (6, nx, ny));
-    ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]. ``walls``: x bounded
-    by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in the
-    particles' period ``ring`` along y."""
-    inv = 1.0 / (rho_s * hx * hy)
+def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out, rate,
+            rate_ref):
+    """Add the owned fluid particles' theta, theta v and, where ``rate`` has them, their drag resistance
+    m C / (V R_ref) and that times v (fixed point) to out (shape (2 + 2 dim, nx, ny, nz): theta, theta v_x..,
+    R, R v_x..); ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]. ``walls``:
+    x bounded by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in
+    the particles' period ``ring`` along y; z periodic (3-D, nz > 1; in 2-D nz = 1, hz = 1)."""
+    three = nz > 1
+    dim = 3 if three else 2
+    inv = 1.0 / (rho_s * hx * hy * hz)
     resist = len(rate) > 0
+    k0, k1, wz0, wz1 = 0, 0, 1.0, 0.0
     for k in range(n_own):
         if kind[k] != GRAIN:
             continue
         i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
         j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
+        if three:
+            k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
         vol = mass[k] * inv
-        vx = vel[k, 0]
-        vy = vel[k, 1]
         r = rate[k] / rate_ref if resist else 0.0
-        for a in range(4):
-            i = i0 if a < 2 else i1
+        for a in range(8 if three else 4):
+            i = i0 if a % 4 < 2 else i1
             j = j0 if a % 2 == 0 else j1
-            w = (wx0 if a < 2 else wx1) * (wy0 if a % 2 == 0 else wy1) * vol
-            out[0, i, j] += np.int64(round(w * SCALE))
-            out[1, i, j] += np.int64(round(w * vx * SCALE))
-            out[2, i, j] += np.int64(round(w * vy * SCALE))
+            wxy = (wx0 if a % 4 < 2 else wx1) * (wy0 if a % 2 == 0 else wy1)
+            if three:
+                wxy *= wz0 if a < 4 else wz1
+            kz = k0 if a < 4 else k1
+            w = wxy * vol
+            out[0, i, j, kz] += np.int64(round(w * SCALE))
+            for c in range(dim):
+                out[1 + c, i, j, kz] += np.int64(round(w * vel[k, c] * SCALE))
             if resist:
-                out[3, i, j] += np.int64(round(w * r * RATE_SCALE))
-                out[4, i, j] += np.int64(round(w * r * vx * RATE_SCALE))
-                out[5, i, j] += np.int64(round(w * r * vy * RATE_SCALE))
+                out[1 + dim, i, j, kz] += np.int64(round(w * r * RATE_SCALE))
+                for c in range(dim):
+                    out[2 + dim + c, i, j, kz] += np.int64(round(w * r * vel[k, c] * RATE_SCALE))
 
 
 @njit(cache=True)
-def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, sides, ring, out):
-    """out[k] = the cell-centred ``field`` (nx, ny, c) at the owned fluid particles, with the deposit's weights
-    (others get zeros)."""
-    nc = field.shape[2]
+def interpolate(pos, kind, n_own, field, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out):
+    """out[k] = the cell-centred ``field`` (nx, ny, nz, c) at the owned fluid particles, with the deposit's
+    weights (others get zeros)."""
+    nc = field.shape[3]
     for k in range(n_own):
         for c in range(nc):
             out[k, c] = 0.0
@@ -96,24 +104,33 @@ def interpolate(pos, kind, n_own, field, nx, ny, hx, hy, Lx, Ly, walls, sides, r
             continue
         i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
         j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
+        if nz == 1:
+            for c in range(nc):
+                out[k, c] = (wx0 * (wy0 * field[i0, j0, 0, c] + wy1 * field[i0, j1, 0, c])
+                             + wx1 * (wy0 * field[i1, j0, 0, c] + wy1 * field[i1, j1, 0, c]))
+            continue
+        k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
         for c in range(nc):
-            out[k, c] = (wx0 * (wy0 * field[i0, j0, c] + wy1 * field[i0, j1, c])
-                         + wx1 * (wy0 * field[i1, j0, c] + wy1 * field[i1, j1, c]))
+            out[k, c] = (wz0 * (wx0 * (wy0 * field[i0, j0, k0, c] + wy1 * field[i0, j1, k0, c])
+                                + wx1 * (wy0 * field[i1, j0, k0, c] + wy1 * field[i1, j1, k0, c]))
+                         + wz1 * (wx0 * (wy0 * field[i0, j0, k1, c] + wy1 * field[i0, j1, k1, c])
+                                  + wx1 * (wy0 * field[i1, j0, k1, c] + wy1 * field[i1, j1, k1, c])))
 
 
 def resistance_of(sums, rho_s, rate_ref):
-    """R = sum_i w m_i C_i / A per cell [kg/(m^3 s)] from the summed deposits, and the velocity its particles'
-    drag is weighted by, V_R = sum_i w m_i C_i v_i / sum_i w m_i C_i (nx, ny, 2; 0 where R = 0): the cell's
-    particles feel the drag R (W - V_R) for a target W, so that with K = 1 / R and W = V_R - K grad p' the
-    grid's -grad p' is the sum of their drag."""
-    R = sums[3] / RATE_SCALE * (rho_s * rate_ref)
-    V = np.zeros(sums.shape[1:] + (2,))
-    some = sums[3] > 0
-    V[some, 0] = sums[4][some] / sums[3][some]
-    V[some, 1] = sums[5][some] / sums[3][some]
+    """R = sum_i w m_i C_i / V per cell [kg/(m^3 s)] from the summed deposits (2 + 2 dim, cells...), and the
+    velocity its particles' drag is weighted by, V_R = sum_i w m_i C_i v_i / sum_i w m_i C_i (cells..., dim;
+    0 where R = 0): the cell's particles feel the drag R (W - V_R) for a target W, so that with K = 1 / R and
+    W = V_R - K grad p' the grid's -grad p' is the sum of their drag."""
+    dim = (sums.shape[0] - 2) // 2
+    R = sums[1 + dim] / RATE_SCALE * (rho_s * rate_ref)
+    V = np.zeros(sums.shape[1:] + (dim,))
+    some = sums[1 + dim] > 0
+    for c in range(dim):
+        V[some, c] = sums[2 + dim + c][some] / sums[1 + dim][some]
     return R, V
 
 
 def theta_of(sums):
-    """theta per cell (nx, ny) from the summed fixed-point deposits."""
+    """theta per cell from the summed fixed-point deposits."""
     return sums[0] / SCALE

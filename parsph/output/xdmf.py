@@ -12,8 +12,8 @@ cells, and draws nothing.
 Outputs of a solved gas also hold its grid (``/grid``); a second temporal collection, "gas grid", shows
 its cells with theta and p' as cell data, and u_g and j as cell vectors (from the files' display copies
 ``/grid/u_g_xyz``, ``/grid/j_xyz``: 3 components, in the frame ParaView draws). Its topology is a
-structured mesh (2DSMesh) whose nodes, (x_i, y_j) = (i h_x, j h_y), are written once in
-``<name>.cells.h5:/grid_nodes``: the arrays are (n_x, n_y) with x the slow index, and the explicit nodes
+structured mesh (2DSMesh; 3DSMesh in 3-D) whose nodes, (x_i, y_j[, z_k]) = (i h_x, j h_y[, k h_z]), are
+written once in ``<name>.cells.h5:/grid_nodes``: the arrays are (n_x, n_y[, n_z]) with x the slow index, and the explicit nodes
 place the cells as the particles are placed (below), so that the cells lie under the particles.
 
 A layer or bed (gravity along -x: the outputs carry ``H0``) opens upright: ParaView's X is the file's y and
@@ -37,14 +37,15 @@ def snapshot_entry(name, time, snapshot, n, dim, field, scale, L, exact, err_max
                    upright=False):
     """What the sidecar says of one output file (a dict; ``profile`` travels as an Information
     element so that scripts can compare ParaView's view of the particles with parsph's profile, its
-    ``axis`` the ParaView axis of the file's x; ``grid``: (n_x, n_y, h_x, h_y) of the gas grid the file
-    holds, or None; ``upright``: a layer, drawn with its height along ParaView's Y)."""
+    ``axis`` the ParaView axis of the file's x; ``grid``: (n_x, n_y[, n_z], h_x, h_y[, h_z]) of the gas grid the
+    file holds, or None; ``upright``: a layer, drawn with its height along ParaView's Y)."""
     return {"name": name, "time": float(time), "snapshot": bool(snapshot), "n": int(n), "dim": int(dim),
             "upright": bool(upright),
             "profile": {"field": str(field), "scale": float(scale), "L": float(L), "bins": len(exact),
                         "exact": [float(v) for v in exact], "err_max": float(err_max),
                         "err_rms": float(err_rms), "axis": 1 if upright else 0},
-            "grid": None if grid is None else [int(grid[0]), int(grid[1]), float(grid[2]), float(grid[3])]}
+            "grid": None if grid is None else ([int(v) for v in grid[:len(grid) // 2]]
+                                               + [float(v) for v in grid[len(grid) // 2:]])}
 
 
 def entry_from_file(f, name):
@@ -155,35 +156,42 @@ def xdmf_grid(entry, cells=None, ncells=None):
 GRID_NODES = "/grid_nodes"
 
 
-def write_grid_nodes(path, nx, ny, hx, hy, upright=False):
-    """``path``:/grid_nodes = the (n_x + 1)(n_y + 1) nodes (x_i, y_j) of the gas grid, x slow, as ParaView
-    places them ((y_j, x_i) ``upright``) (the file made or extended beside the connectivity)."""
-    x, y = np.meshgrid(np.arange(nx + 1) * hx, np.arange(ny + 1) * hy, indexing="ij")
-    nodes = np.stack([y.ravel(), x.ravel()] if upright else [x.ravel(), y.ravel()], axis=1)
+def write_grid_nodes(path, grid, upright=False):
+    """``path``:/grid_nodes = the (n_x + 1)(n_y + 1)[(n_z + 1)] nodes (x_i, y_j[, z_k]) of the gas grid
+    ``grid`` = (n_x, n_y[, n_z], h_x, h_y[, h_z]), x slow, as ParaView places them ((y_j, x_i[, z_k])
+    ``upright``) (the file made or extended beside the connectivity)."""
+    dim = len(grid) // 2
+    axes = np.meshgrid(*[np.arange(grid[a] + 1) * grid[dim + a] for a in range(dim)], indexing="ij")
+    cols = [a.ravel() for a in axes]
+    if upright:
+        cols[0], cols[1] = cols[1], cols[0]
+    nodes = np.stack(cols, axis=1)
     with h5py.File(path, "a") as f:
         if GRID_NODES in f:
             if f[GRID_NODES].shape == nodes.shape and np.array_equal(f[GRID_NODES][()], nodes):
                 return
             del f[GRID_NODES]
         d = f.create_dataset(GRID_NODES, data=nodes)
-        d.attrs["content"] = "XDMF 2DSMesh nodes of the gas grid: (x_i, y_j), i slow"
+        d.attrs["content"] = ("XDMF 2DSMesh nodes of the gas grid: (x_i, y_j), i slow" if dim == 2 else
+                              "XDMF 3DSMesh nodes of the gas grid: (x_i, y_j, z_k), i slow, k fast")
 
 
 def xdmf_gas_grid(entry, nodes_file):
     """One time step of the gas grid: its cells with theta and p' as cell data, u_g and j as cell vectors."""
     fname = entry["name"]
-    nx, ny = entry["grid"][:2]
+    dim = len(entry["grid"]) // 2
+    ns = entry["grid"][:dim]
     grid = ET.Element("Grid", Name=fname + ":grid", GridType="Uniform")
     ET.SubElement(grid, "Time", Value=repr(entry["time"]))
-    ET.SubElement(grid, "Topology", TopologyType="2DSMesh", Dimensions=f"{nx + 1} {ny + 1}")
-    geom = ET.SubElement(grid, "Geometry", GeometryType="XY")
-    _data_item(geom, nodes_file, GRID_NODES, ((nx + 1) * (ny + 1), 2), np.float64)
+    ET.SubElement(grid, "Topology", TopologyType=f"{dim}DSMesh", Dimensions=" ".join(str(n + 1) for n in ns))
+    geom = ET.SubElement(grid, "Geometry", GeometryType="XY" if dim == 2 else "XYZ")
+    _data_item(geom, nodes_file, GRID_NODES, (int(np.prod([n + 1 for n in ns])), dim), np.float64)
     for key in ("theta", "p"):
         attr = ET.SubElement(grid, "Attribute", Name=key, AttributeType="Scalar", Center="Cell")
-        _data_item(attr, fname, f"/grid/{key}", (nx, ny), np.float64)
+        _data_item(attr, fname, f"/grid/{key}", tuple(ns), np.float64)
     for key in VECTORS:
         attr = ET.SubElement(grid, "Attribute", Name=key, AttributeType="Vector", Center="Cell")
-        _data_item(attr, fname, f"/grid/{key}_xyz", (nx, ny, 3), np.float64)
+        _data_item(attr, fname, f"/grid/{key}_xyz", tuple(ns) + (3,), np.float64)
     return grid
 
 
@@ -202,7 +210,7 @@ def write_xdmf(path, entries):
             series.append(xdmf_grid(entry, cells, ncells))
     gridded = [e for e in sorted(entries, key=lambda e: e["time"]) if e.get("grid")]
     if gridded:
-        write_grid_nodes(os.path.join(os.path.dirname(path), cells), *gridded[-1]["grid"],
+        write_grid_nodes(os.path.join(os.path.dirname(path), cells), gridded[-1]["grid"],
                          upright=gridded[-1].get("upright", False))
         gas = ET.SubElement(root.find("Domain"), "Grid", Name="gas grid", GridType="Collection",
                             CollectionType="Temporal")

@@ -115,9 +115,7 @@ def _solved_keys(v, dim, g, flow, gas):
                 raise ConfigError(f"gas.{key}", f'belongs to the solved gas: give gas.flow = "solved" (not "{flow}")')
         return {}
     scene = get_scene(v["scene"]["name"])
-    if dim != 2:
-        raise ConfigError("scene.dim", "the solved gas runs in 2-D (its grid is two-dimensional): give scene.dim = 2")
-    if not (g[0] < 0.0 and g[1] == 0.0):
+    if not (g[0] < 0.0 and all(c == 0.0 for c in g[1:])):
         where = "through the floor at x = 0" if scene.walls else "along the periodic x at the mean flux gas.U"
         raise ConfigError("body_force.g", f"the solved gas is fed {where}: give gravity along -x, got {list(g)}")
     jet, jet_until = (), float("inf")
@@ -146,11 +144,17 @@ def solved_grid(gas, lat, walls):
     """The solved gas's cell size (default :data:`CELL_DX` dx) against the box, and its default cap K_max =
     :data:`K_MAX_FACTOR` K(theta0) where none is given."""
     Lx, Ly, dx = lat["L"], lat["Ly"], lat["dx"]
+    Lz = lat["Lz"] if lat["dim"] == 3 else Ly
     cell = gas.cell or CELL_DX * dx
     nx_min = 2 if walls else 3  # a periodic axis needs 3 cells (a cell's two neighbours distinct)
-    if not (cell <= Lx / nx_min * (1.0 + 1e-12) and cell <= Ly / 3.0 * (1.0 + 1e-12)):
-        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than {nx_min} cells along x or 3 along the periodic "
-                          f"y (the box is {Lx:g} m x {Ly:g} m: domain.L x domain.Ly)")
+    if not (cell <= Lx / nx_min * (1.0 + 1e-12) and cell <= min(Ly, Lz) / 3.0 * (1.0 + 1e-12)):
+        box = f"{Lx:g} m x {Ly:g} m" + (f" x {Lz:g} m" if lat["dim"] == 3 else "")
+        raise ConfigError("gas.cell", f"{cell:g} m leaves fewer than {nx_min} cells along x or 3 along a periodic "
+                          f"y or z (the box is {box}: domain.L x domain.Ly" + (" x domain.Lz)" if lat["dim"] == 3
+                                                                                else ")"))
+    if lat["dim"] == 3 and (Lx / cell) * (Ly / cell) * (Lz / cell) > 200_000:
+        raise ConfigError("gas.cell", f"{cell:g} m makes more than 200,000 cells in 3-D (the solve is one rank's "
+                          "sparse direct solve)")
     if not (Lx / cell <= 4096 and Ly / cell <= 4096):
         raise ConfigError("gas.cell", f"{cell:g} m makes more than 4096 cells along an axis (the solve is one "
                           "rank's sparse direct solve)")

@@ -41,14 +41,15 @@ from parsph.sph import body_force, pass_data
 
 
 def floor_flux(grid, gas, t=0.0):
-    """The gas fed through each floor face at time t [m/s]: U, and U_jet where the face's centre lies under
-    gas.jet while the jet blows (to its t_off, where one is given)."""
+    """The gas fed through each floor face at time t [m/s], (j, k) flattened: U, and U_jet where the face's
+    centre lies under gas.jet (a strip y0 <= y < y1, across z in 3-D) while the jet blows (to its t_off, where
+    one is given)."""
     U = np.full(grid.ny, gas.U)
     if gas.jet and t < gas.jet_until:
         y0, y1, U_jet = gas.jet
         y = (np.arange(grid.ny) + 0.5) * grid.hy
         U[(y >= y0) & (y < y1)] = U_jet
-    return U
+    return np.repeat(U, grid.nz)
 
 
 def reference_rate(cfg):
@@ -67,23 +68,25 @@ class GasStage:
         gas = cfg.gas
         self.gas = gas
         self.rho_s = cfg.rho_s
-        self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=cfg.scene.walls, sides=cfg.sides)
+        self.grid = grid_of(cfg.L, cfg.Ly, gas.cell, walls=cfg.scene.walls, sides=cfg.sides,
+                            Lz=cfg.Lz if cfg.dim == 3 else 0.0)
         self.ring = cfg.Ly_ring  # the particles' period along y
         g = self.grid
-        self.sums = np.zeros((6, g.nx, g.ny), np.int64)
+        self.sums = np.zeros((2 + 2 * g.dim,) + g.shape, np.int64)
         self.exchange = GridSum(comm)
         self.rate_ref = reference_rate(cfg)
         self.K_max = permeability_cap(cfg)
         if g.walls:  # the floor fed at U (U_jet under a jet), the lid open (p' = 0); y periodic or closed
-            closed = (darcy.Side("flux", np.zeros(g.nx)),) * 2 if g.sides else None
+            closed = (darcy.Side("flux", np.zeros(g.nx * g.nz)),) * 2 if g.sides else None
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", floor_flux(g, gas)),
-                                                              darcy.Side("pressure", np.zeros(g.ny))), closed)
+                                                              darcy.Side("pressure", np.zeros(g.ny * g.nz))), closed,
+                                     nz=g.nz, hz=g.hz)
         else:  # periodic along gravity: the mean flux U through every cross-section
-            self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, None, None, mean_flux=gas.U)
+            self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, None, None, mean_flux=gas.U, nz=g.nz, hz=g.hz)
         self.every = gas.solve_every
         self.solved_at = None
         self.solves = 0
-        self.j = None          # the mixture's flux at the cell centres (nx, ny, 2)
+        self.j = None          # the mixture's flux at the cell centres (cells..., dim)
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
         self.rates = np.zeros(0)
         self.no_stream = np.zeros(3)
@@ -105,10 +108,10 @@ class GasStage:
     def fields(self):
         """What an output keeps of the grid (:class:`parsph.output.Frame`'s ``grid``): the last solve's theta,
         p' [Pa], the mixture's flux j and the gas's velocity u_g = (j - theta V) / eps [m/s] at the cells
-        (nx, ny[, 2]), and under start/ what the last call started from, so that a restart from this state
+        (nx, ny[, nz][, dim]), and under start/ what the last call started from, so that a restart from this state
         makes the same solves: the flux it held, the warm start, the factor's K."""
         sol = self.solution
-        out = {"attrs": {"cell": [self.grid.hx, self.grid.hy], "solves": self.solves}}
+        out = {"attrs": {"cell": self.grid.cell, "solves": self.solves}}
         if sol is not None:
             eps = (1.0 - sol.theta)[..., None]
             out.update({"theta": sol.theta, "p": sol.p, "j": self.j,
@@ -139,8 +142,9 @@ class GasStage:
 
     def _interpolate(self, ps):
         g = self.grid
-        deposit.interpolate(ps.pos, ps.kind, ps.n_own, self.j, g.nx, g.ny, g.hx, g.hy, g.nx * g.hx, g.ny * g.hy,
-                            g.walls, g.sides, self.ring, ps.flux)
+        deposit.interpolate(ps.pos, ps.kind, ps.n_own, self.j.reshape(g.shape3 + (g.dim,)), g.nx, g.ny, g.nz,
+                            g.hx, g.hy, g.hz, g.nx * g.hx, g.ny * g.hy, g.nz * g.hz, g.walls, g.sides, self.ring,
+                            ps.flux)
 
     def _rates(self, ps, flux, out):
         """out[k] = K of the owned particles at the slip toward ``flux`` (body_force.drag_rates)."""
@@ -170,9 +174,9 @@ class GasStage:
             self._rates(ps, ps.flux if p > 0 or lagged else ps.vel, ps.drag_rate)
             self.rates[:n] = ps.drag_rate[:n] / (1.0 - ps.theta[:n])
             self.sums[:] = 0
-            deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.hx, g.hy,
-                            g.nx * g.hx, g.ny * g.hy, g.walls, g.sides, self.ring, self.sums, self.rates,
-                            self.rate_ref)
+            deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.nz, g.hx, g.hy,
+                            g.hz, g.nx * g.hx, g.ny * g.hy, g.nz * g.hz, g.walls, g.sides, self.ring,
+                            self.sums.reshape(self.sums.shape[:1] + g.shape3), self.rates, self.rate_ref)
             self.exchange(self.sums)
             theta = deposit.theta_of(self.sums)
             R, V = deposit.resistance_of(self.sums, self.rho_s, self.rate_ref)

@@ -206,6 +206,8 @@ def describe(cfg):
     packed = (f" (past random close packing, {RANDOM_CLOSE_PACKING:g}: outside the physical range)"
               if n.packed_past else "")
     across = (f"between side walls {cfg.Ly:g} m apart" if cfg.sides else f"periodic across L_y = {cfg.Ly:g} m")
+    if cfg.dim == 3:
+        across += f", periodic across L_z = {cfg.Lz:g} m"
     head = f"  layer: theta0 = {n.theta0:.4g}{packed}, H0 = {n.H0:.4g} m, {across}"
     if cfg.packing:
         lo, hi = cfg.packing
