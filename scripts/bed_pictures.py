@@ -1,5 +1,6 @@
 """A picture sequence of a bubbling bed for docs/validation.md: at each time given, the particles (coloured by
-theta) above the gas grid's theta, upright in mm, one column a time, one colour scale.
+theta) above the gas grid's theta, upright in mm, one column a time, one colour scale. A 3-D bed is drawn in
+the middle layer of cells across z: its grid's cells and the particles in that layer.
 
     .venv/bin/python scripts/bed_pictures.py OUT --times 0.1 0.2 0.3 0.4 --png docs/bubbling_bed.png [--top MM]
 
@@ -34,6 +35,11 @@ def main():
             p = f["particles"]
             fluid = p["kind"][()] == GRAIN
             x, th = p["position"][()][fluid], p["theta"][()][fluid]
+        if x.shape[1] == 3:  # the middle layer of cells across z, as grid_plot.draw draws the grid
+            hz, nz = row[3][2], row[2]["theta"].shape[2]
+            mid = nz // 2
+            sel = (x[:, 2] >= mid * hz) & (x[:, 2] < (mid + 1) * hz)
+            x, th = x[sel], th[sel]
         ax[0, k].scatter(x[:, 1] * 1e3, x[:, 0] * 1e3, c=th, s=0.3, vmin=0.0, vmax=0.8, cmap="viridis_r",
                               rasterized=True)
         ax[0, k].set_aspect("equal")

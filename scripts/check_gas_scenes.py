@@ -18,7 +18,8 @@ import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-NAMES = ("suspension", "sedimentation", "fluidized_bed", "fluidized_bed_air", "bubbling_bed", "single_bubble")
+NAMES = ("suspension", "sedimentation", "fluidized_bed", "fluidized_bed_air", "bubbling_bed", "single_bubble",
+         "bubbling_bed_3d")
 
 
 def parsph(*args, ranks=1):
@@ -30,11 +31,11 @@ def parsph(*args, ranks=1):
 
 def verdict(out):
     """The numbers check printed: (heights % of H0, interior %) for a layer (None where not judged), (the
-    time-averaged drop's deviation from the weight %, the bubbles' median rise velocity / 0.5 sqrt(g D)) for a
+    time-averaged drop's deviation from the weight %, the bubbles' median rise velocity / c sqrt(g D)) for a
     bubbling bed, else (the error table's worst max error, None)."""
     if "bed check:" in out:
-        d = re.search(r"drop/W = [\d.]+ \(([+-][\d.]+)%\)", out)
-        r = re.search(r"u_b / \(0.5 sqrt\(g D\)\): median ([\d.e+-]+)", out)
+        d = re.search(r"drop/W = [\d.]+ \(([+-][\d.]+)%[);]", out)
+        r = re.search(r"u_b / \([\d.]+ sqrt\(g D\)\): median ([\d.e+-]+)", out)
         return (float(d.group(1)) if d else None), (float(r.group(1)) if r else None)
     if "layer:" in out:
         h = re.search(r"heights within ([\d.e+-]+)% of H0", out)
@@ -67,7 +68,7 @@ def main():
         first, second = verdict(c.stdout)
         if "bed check:" in c.stdout:
             what = (f"drop {first:+.3g}% from the weight (1%)" if first is not None else "drop not judged") + \
-                   (f", bubbles' rise {second:.3g} x 0.5 sqrt(g D)" if second is not None else ", no bubble tracked")
+                   (f", bubbles' rise {second:.3g} x c sqrt(g D) (c: 0.5 in 2-D, 0.711 in 3-D)" if second is not None else ", no bubble tracked")
         elif "layer:" in c.stdout:
             what = (f"heights within {first:.3g}% of H0 (3%)" if first is not None else "no heights") + \
                    (f", interior theta within {second:.3g}% (2%)" if second is not None else ", interior not judged")

@@ -46,8 +46,8 @@ def steps_of(xdmf):
     """(time, dim, profile dict) of each uniform grid of the sidecar, in time order."""
     out = []
     for grid in ET.parse(xdmf).getroot().iter("Grid"):
-        if grid.get("GridType") != "Uniform":
-            continue
+        if grid.get("GridType") != "Uniform" or grid.get("Name", "").endswith(":grid"):
+            continue  # the solved gas's grid (its own collection) is not a point set
         info = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
         dim = 2 if grid.find("Geometry").get("GeometryType") in ("XY", "X_Y") else 3
         out.append((float(grid.find("Time").get("Value")), dim, json.loads(info["parsph.profile"])))
