@@ -13,7 +13,7 @@ definite (semi-definite where no side has a given pressure: then p' is pinned to
 constant is free). The solves are a well-kept library's: where x has sides the cells are ordered so that
 the matrix is a narrow band (:func:`band_order`: half-width ny, or 2 nx with a periodic y folded) and LAPACK's banded Cholesky
 (scipy.linalg.cholesky_banded) factorises it, 2-3x faster than SuperLU on the grids of a bed up to a
-half-width of :data:`BAND_MAX`; past it, and where x is periodic, scipy's sparse LU (SuperLU), ordered by
+half-width of :data:`BAND_MAX` (:data:`BAND_MAX_3D` in 3-D, half-width ny nz); past it, and where x is periodic, scipy's sparse LU (SuperLU), ordered by
 minimum degree on A + A^T where the band was too wide (on one idle core: 80 x 160 cells, half-width 160,
 20.6 ms the band and 19.6 ms SuperLU; 160 x 320, half-width 320, 625 and 142 ms).
 
@@ -48,6 +48,11 @@ REFRESH_ITER = 4   # a solve that needed more makes the next one factorise
 # (20 ms), at 120 the band 10 ms against 18; the band's cost grows as n w^2, SuperLU's with minimum degree
 # about as n^1.5 (docs/performance.md)
 BAND_MAX = 160
+# in 3-D minimum degree leaves SuperLU far more fill (a 3-D grid's separators are planes), and the band wins to
+# a half-width of about 900 (docs/performance.md, "The solved gas in 3-D"); a band past BAND_BYTES goes to
+# SuperLU all the same
+BAND_MAX_3D = 900
+BAND_BYTES = 512 * 2 ** 20
 KINDS = {"flux": FLUX, "pressure": PRESSURE}
 
 
@@ -317,7 +322,8 @@ class Darcy:
         self.upper = cols_of >= rows_of
         self.band_at = (w + rows_of[self.upper] - cols_of[self.upper], cols_of[self.upper])
         self.width = w
-        self.banded = x_sides is not None and w <= BAND_MAX
+        self.banded = (x_sides is not None and w <= (BAND_MAX_3D if nz > 1 else BAND_MAX)
+                       and 8 * (w + 1) * n <= BAND_BYTES)
         self.ordered = x_sides is not None and not self.banded  # SuperLU with minimum degree on A + A^T
         self.rhs = np.zeros(n)
         self.unit_rhs = np.zeros(n)

@@ -1,18 +1,18 @@
 """The particles on the grid and the grid at the particles, with one set of weights both ways (cloud in
-cell: bilinear in the cell centres, trilinear in 3-D), so that the force the grid's fields put on the solids is the reaction
-of what they deposited (docs/physics.md, "The solved gas"). Besides theta and theta v, each particle
-deposits its drag resistance m C (C its drag rate, 1/s): the cell's R, whose inverse is the cell's K.
+cell: bilinear in the cell centres, trilinear in 3-D), so that the force the grid's fields put on the solids
+is the reaction of what they deposited (docs/physics.md, "The solved gas"). Each particle deposits its
+volume (theta) and its drag resistance m C (C its drag rate, 1/s) and that times v: the cell's R, whose
+inverse is the cell's K, and the velocity its grains' drag is weighted by.
 
-A particle of volume m / rho_s adds w_c m / (rho_s V) to theta and that times v to theta v of the four
-cells c around it (eight in 3-D: trilinear; V a cell's volume, its area in 2-D; the w_c summing to 1). Where a cell would lie beyond a plate, its weight
-folds onto the cell inside (the mirror image of the particle across the plate), so that theta does not fall
-off at a wall; likewise at side walls across y. y without side walls (and x without plates) wraps around the
-period.
+A particle of volume m / rho_s adds w_c m / (rho_s V) to theta of the four cells c around it (eight in 3-D;
+V a cell's volume, its area in 2-D; the w_c summing to 1), and w_c m C / V to R. Where a cell would lie
+beyond a plate, its weight folds onto the cell inside (the mirror image of the particle across the plate),
+so that theta does not fall off at a wall; likewise at side walls across y. y without side walls (and x
+without plates) wraps around the period.
 
 The sums are kept in fixed point (int64, :data:`SCALE` per unit): each term is rounded once, and integers add
 in any order to the same bits, so the grid is the same on any rank count and in any particle order (the
-float sum over ranks would not be). 2^-40 of a unit is far below any other error; |theta v| up to 2^22 m/s
-fits.
+float sum over ranks would not be). 2^-40 of a unit is far below any other error.
 """
 import math
 
@@ -56,9 +56,8 @@ def _axis_weights(x, h, n, length, bounded, period):
 @njit(cache=True)
 def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out, rate,
             rate_ref):
-    """Add the owned fluid particles' theta, theta v and, where ``rate`` has them, their drag resistance
-    m C / (V R_ref) and that times v (fixed point) to out (shape (2 + 2 dim, nx, ny, nz): theta, theta v_x..,
-    R, R v_x..); ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]. ``walls``:
+    """Add the owned fluid particles' theta and, where ``rate`` has them, their drag resistance m C / (V R_ref)
+    and that times v (fixed point) to out (shape (2 + dim, nx, ny, nz): theta, R, R v_x..); ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]. ``walls``:
     x bounded by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in
     the particles' period ``ring`` along y; z periodic (3-D, nz > 1; in 2-D nz = 1, hz = 1)."""
     three = nz > 1
@@ -84,12 +83,10 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, 
             kz = k0 if a < 4 else k1
             w = wxy * vol
             out[0, i, j, kz] += np.int64(round(w * SCALE))
-            for c in range(dim):
-                out[1 + c, i, j, kz] += np.int64(round(w * vel[k, c] * SCALE))
             if resist:
-                out[1 + dim, i, j, kz] += np.int64(round(w * r * RATE_SCALE))
+                out[1, i, j, kz] += np.int64(round(w * r * RATE_SCALE))
                 for c in range(dim):
-                    out[2 + dim + c, i, j, kz] += np.int64(round(w * r * vel[k, c] * RATE_SCALE))
+                    out[2 + c, i, j, kz] += np.int64(round(w * r * vel[k, c] * RATE_SCALE))
 
 
 @njit(cache=True)
@@ -118,16 +115,16 @@ def interpolate(pos, kind, n_own, field, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, wal
 
 
 def resistance_of(sums, rho_s, rate_ref):
-    """R = sum_i w m_i C_i / V per cell [kg/(m^3 s)] from the summed deposits (2 + 2 dim, cells...), and the
+    """R = sum_i w m_i C_i / V per cell [kg/(m^3 s)] from the summed deposits (2 + dim, cells...), and the
     velocity its particles' drag is weighted by, V_R = sum_i w m_i C_i v_i / sum_i w m_i C_i (cells..., dim;
     0 where R = 0): the cell's particles feel the drag R (W - V_R) for a target W, so that with K = 1 / R and
     W = V_R - K grad p' the grid's -grad p' is the sum of their drag."""
-    dim = (sums.shape[0] - 2) // 2
-    R = sums[1 + dim] / RATE_SCALE * (rho_s * rate_ref)
+    dim = sums.shape[0] - 2
+    R = sums[1] / RATE_SCALE * (rho_s * rate_ref)
     V = np.zeros(sums.shape[1:] + (dim,))
-    some = sums[1 + dim] > 0
+    some = sums[1] > 0
     for c in range(dim):
-        V[some, c] = sums[2 + dim + c][some] / sums[1 + dim][some]
+        V[some, c] = sums[2 + c][some] / sums[1][some]
     return R, V
 
 

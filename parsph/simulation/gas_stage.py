@@ -1,6 +1,6 @@
 """The solved gas's part of an evaluation (docs/physics.md, "The solved gas"), between Eq. (3) and Eq. (5)
 (the particles' theta of the state known): the owned particles deposited on the grid (:mod:`parsph.gas.deposit`:
-theta, theta v and their drag resistance m C), the deposits summed over the ranks
+theta and their drag resistance m C, and that times v), the deposits summed over the ranks
 (:class:`parsph.parallel.grid_sum.GridSum`), K = 1 / R on the cells (capped), the pressure solved
 (:mod:`parsph.gas.darcy`) and the mixture's flux j interpolated back to the owned particles (``ps.flux``), where
 the drag loops read it (:func:`parsph.sph.body_force.drag_plain`: C = K_i / eps_i toward w = j, implicit in v
@@ -72,7 +72,7 @@ class GasStage:
                             Lz=cfg.Lz if cfg.dim == 3 else 0.0)
         self.ring = cfg.Ly_ring  # the particles' period along y
         g = self.grid
-        self.sums = np.zeros((2 + 2 * g.dim,) + g.shape, np.int64)
+        self.sums = np.zeros((2 + g.dim,) + g.shape, np.int64)  # theta, R, R v (deposit.deposit)
         self.exchange = GridSum(comm)
         self.rate_ref = reference_rate(cfg)
         self.K_max = permeability_cap(cfg)
