@@ -100,52 +100,59 @@ def _face_v(Ka, Kb, Va, Vb):
 
 
 @njit(cache=True)
-def _axis_faces(K, Vc, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
-    """The mixture's flux along axis 0 through the faces across it, out (n0 + 1, n1), from the solved p' (a
-    given flux where a side gives it); Vc the solids' velocity along that axis. ``drive``: a mean gradient
-    -drive of p' along a periodic axis adds drive K_f to the faces' flux. The y-faces are this on the
-    transposed arrays."""
-    n0, n1 = K.shape
-    for i in range(n0 + 1):
-        for j in range(n1):
-            if 0 < i < n0:
-                a, b = i - 1, i
-            elif kind_lo == PERIODIC:
-                a, b = n0 - 1, 0
-            else:
-                lo = i == 0
-                c = 0 if lo else n0 - 1
-                kind = kind_lo if lo else kind_hi
-                v = vals_lo[j] if lo else vals_hi[j]
-                if kind == FLUX:
-                    out[i, j] = v
+def _axis_faces(K, V, axis, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
+    """The mixture's flux along ``axis`` through the faces across it, out (the cells' shape with one more along
+    it), from the solved p' (a given flux where a side gives it); K, p (nx, ny, nz), V (nx, ny, nz, dim).
+    ``drive``: a mean gradient -drive of p' along a periodic axis adds drive K_f to the faces' flux. A side's
+    values are per face, (j, k) flattened on an x side, (i, k) on a y side; z has none (periodic)."""
+    nx, ny, nz = K.shape
+    n = K.shape[axis]
+    o0, o1, o2 = out.shape
+    for a in range(o0):
+        for b in range(o1):
+            for c in range(o2):
+                t = a if axis == 0 else (b if axis == 1 else c)
+                side = b * nz + c if axis == 0 else a * nz + c
+                if 0 < t < n:
+                    lo, hi = t - 1, t
+                elif kind_lo == PERIODIC:
+                    lo, hi = n - 1, 0
                 else:
-                    sign = -1.0 if lo else 1.0
-                    out[i, j] = -K[c, j] * sign * (v - p[c, j]) / (0.5 * h)
-                continue
-            Kf = _harm(K[a, j], K[b, j])
-            out[i, j] = _face_v(K[a, j], K[b, j], Vc[a, j], Vc[b, j]) + drive * Kf - Kf * (p[b, j] - p[a, j]) / h
+                    low = t == 0
+                    cell = 0 if low else n - 1
+                    ia, ib, ic = (cell, b, c) if axis == 0 else ((a, cell, c) if axis == 1 else (a, b, cell))
+                    kind = kind_lo if low else kind_hi
+                    v = vals_lo[side] if low else vals_hi[side]
+                    if kind == FLUX:
+                        out[a, b, c] = v
+                    else:
+                        sign = -1.0 if low else 1.0
+                        out[a, b, c] = -K[ia, ib, ic] * sign * (v - p[ia, ib, ic]) / (0.5 * h)
+                    continue
+                if axis == 0:
+                    la, lb, lc, ha, hb, hc = lo, b, c, hi, b, c
+                elif axis == 1:
+                    la, lb, lc, ha, hb, hc = a, lo, c, a, hi, c
+                else:
+                    la, lb, lc, ha, hb, hc = a, b, lo, a, b, hi
+                Ka, Kb = K[la, lb, lc], K[ha, hb, hc]
+                Kf = _harm(Ka, Kb)
+                out[a, b, c] = (_face_v(Ka, Kb, V[la, lb, lc, axis], V[ha, hb, hc, axis]) + drive * Kf
+                                - Kf * (p[ha, hb, hc] - p[la, lb, lc]) / h)
 
 
 def _faces(K, V, h, kinds, values, p, drive):
     """The mixture's flux through every face along each axis, [jx, jy(, jz)] ((nx + 1, ny, nz), ...), from K,
-    p' (nx, ny, nz) and V (nx, ny, nz, dim); ``drive`` along x only. Each axis is :func:`_axis_faces` on the
-    arrays with that axis first and the others flattened (z periodic)."""
-    dim = V.shape[3]
+    p' (nx, ny, nz) and V (nx, ny, nz, dim); ``drive`` along x only (z periodic)."""
     out = []
-    for a in range(dim):
-        def first(f):
-            g = np.moveaxis(f, a, 0)
-            return np.ascontiguousarray(g).reshape(g.shape[0], -1)
-        n = K.shape[a]
-        j = np.zeros((n + 1, K.size // n))
+    for a in range(V.shape[3]):
+        shape = list(K.shape)
+        shape[a] += 1
+        j = np.zeros(shape)
         lo, hi = (values[2 * a], values[2 * a + 1]) if a < 2 else (values[0], values[0])
         kind_lo, kind_hi = (kinds[2 * a], kinds[2 * a + 1]) if a < 2 else (PERIODIC, PERIODIC)
-        _axis_faces(first(K), first(V[..., a]), h[a], kind_lo, kind_hi, lo, hi, first(p), j,
-                    drive if a == 0 else 0.0)
-        shape = list(np.moveaxis(K, a, 0).shape)
-        shape[0] += 1
-        out.append(np.moveaxis(j.reshape(shape), 0, a))
+        _axis_faces(K, V, a, h[a], kind_lo, kind_hi, lo, hi, p, j, drive if a == 0 else 0.0)
+        out.append(j)
     return out
 
 

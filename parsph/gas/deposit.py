@@ -74,19 +74,22 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, 
             k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
         vol = mass[k] * inv
         r = rate[k] / rate_ref if resist else 0.0
-        for a in range(8 if three else 4):
-            i = i0 if a % 4 < 2 else i1
-            j = j0 if a % 2 == 0 else j1
-            wxy = (wx0 if a % 4 < 2 else wx1) * (wy0 if a % 2 == 0 else wy1)
-            if three:
-                wxy *= wz0 if a < 4 else wz1
-            kz = k0 if a < 4 else k1
-            w = wxy * vol
-            out[0, i, j, kz] += np.int64(round(w * SCALE))
-            if resist:
-                out[1, i, j, kz] += np.int64(round(w * r * RATE_SCALE))
-                for c in range(dim):
-                    out[2 + c, i, j, kz] += np.int64(round(w * r * vel[k, c] * RATE_SCALE))
+        for az in range(2 if three else 1):
+            kz = k1 if az else k0
+            for ax in range(2):
+                i = i1 if ax else i0
+                wx = wx1 if ax else wx0
+                for ay in range(2):
+                    j = j1 if ay else j0
+                    wxy = wx * (wy1 if ay else wy0)
+                    if three:
+                        wxy *= wz1 if az else wz0
+                    w = wxy * vol
+                    out[0, i, j, kz] += np.int64(round(w * SCALE))
+                    if resist:
+                        out[1, i, j, kz] += np.int64(round(w * r * RATE_SCALE))
+                        for c in range(dim):
+                            out[2 + c, i, j, kz] += np.int64(round(w * r * vel[k, c] * RATE_SCALE))
 
 
 @njit(cache=True)
