@@ -95,7 +95,7 @@ SUITE = [
     ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 1),
     ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 2),
     ("fluidized_bed.toml", ["scene.dim=3", "body_force.g=[-9.81, 0.0, 0.0]", "domain.Lz=0.0012", "numerics.dt=5e-5",
-                            'gas.flow="solved"', "gas.cell=0.0004"], 1),
+                            'gas.flow="solved"', "gas.cell=0.0004", 'gas.drag="gidaspow"'], 1),
     ("voidage_waves.toml", ['gas.flow="solved"'], 1),
 ]
 QUEUE = "PARSPH_WARM_QUEUE"  # a worker's shared folder: the lock, the next case, the results

@@ -90,6 +90,7 @@ class GasStage:
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
         self.rates = np.zeros(0)
         self.no_stream = np.zeros(3)
+        self.three_d = pass_data.ON if g.dim == 3 else pass_data.OFF  # the velocities' stride (drag_rates)
         self.before = (None, None, (None, None))  # what the last call started from (j, solved_at, darcy's start)
         self.earlier = self.before                # and the call before it
         ps.add_field("flux")
@@ -150,7 +151,7 @@ class GasStage:
         """out[k] = K of the owned particles at the slip toward ``flux`` (body_force.drag_rates)."""
         gas = self.gas
         body_force.drag_rates(ps.n_own, ps.vel, ps.theta, self.rho_s, gas.model, gas.rho, gas.mu, gas.d,
-                              pass_data.TOWARD_FLUX, 0, 0.0, 0.0, self.no_stream, flux, out, pass_data.OFF)
+                              pass_data.TOWARD_FLUX, 0, 0.0, 0.0, self.no_stream, flux, out, self.three_d)
 
     def solve(self, ps, step, t):
         g, gas = self.grid, self.gas

@@ -62,12 +62,14 @@ CASES = {
     "fluidized_bed_sides": ("fluidized_bed.toml", ["domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
                                                    "scene.height=0.0016", "numerics.dt=5e-5", 'gas.flow="solved"',
                                                    "walls.sides=true"], 0.1, 80),
-    # in 3-D: the grid's z periodic (3 cells of 2 dx), its faces across z, the deposit trilinear
+    # in 3-D: the grid's z periodic (3 cells of 2 dx), its faces across z, the deposit trilinear; a slip-dependent
+    # closure (its rates at the 3-D slip toward the last solve's flux)
     "fluidized_bed_solved_3d": ("fluidized_bed.toml", ["scene.dim=3", "body_force.g=[-9.81, 0.0, 0.0]",
                                                        "domain.L=0.004", "numerics.Nx=20", f"domain.Ly={ROWS * DX!r}",
                                                        f"domain.Lz={6 * DX!r}", "scene.height=0.0016",
-                                                       "numerics.dt=5e-5", 'gas.flow="solved"', "gas.cell=0.0004"],
-                                0.1, 60),
+                                                       "numerics.dt=5e-5", 'gas.flow="solved"', "gas.cell=0.0004",
+                                                       'gas.drag="gidaspow"'],
+                                0.3, 80),
 }
 FIELDS = ("gid", "kind", "mass", "pos", "vel", "acc", "rho", "theta")
 
