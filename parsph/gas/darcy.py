@@ -269,9 +269,12 @@ class Darcy:
     (a box periodic along gravity fed at U). Then p' = p~ - G x, p~ periodic: the solve for p~ with G = 0 and
     with the unit G (one matrix, two right-hand sides), superposed with the G that carries the flux.
 
-    ``reuse`` False: every solve factorises (the reference the preconditioned solves are measured against)."""
+    ``reuse`` False: every solve factorises (the reference the preconditioned solves are measured against).
+    ``method``: "band" or "superlu" (minimum degree) where x has sides, instead of the choice by the band's
+    half-width (benchmarks and tests)."""
 
-    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None, reuse=True, nz=1, hz=1.0):
+    def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None, reuse=True, nz=1, hz=1.0,
+                 method=None):
         if mean_flux is not None and x_sides is not None:
             raise ValueError("a mean flux drives a periodic x only")
         self.mean_flux = mean_flux
@@ -331,6 +334,10 @@ class Darcy:
         self.width = w
         self.banded = (x_sides is not None and w <= (BAND_MAX_3D if nz > 1 else BAND_MAX)
                        and 8 * (w + 1) * n <= BAND_BYTES)
+        if method is not None:
+            if method not in ("band", "superlu") or x_sides is None:
+                raise ValueError(f"method {method!r}: 'band' or 'superlu', where x has sides")
+            self.banded = method == "band"
         self.ordered = x_sides is not None and not self.banded  # SuperLU with minimum degree on A + A^T
         self.rhs = np.zeros(n)
         self.unit_rhs = np.zeros(n)
