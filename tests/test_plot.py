@@ -187,3 +187,17 @@ def test_3d_slice_keeps_a_level_drifted_by_round_off():
     z = lv + rng.uniform(-1e-10, 1e-10, 1000)
     keep, mid = middle_layer(z)
     assert mid == pytest.approx(0.5e-3, abs=1e-9) and np.array_equal(keep, lv == 0.5e-3)
+
+
+def test_3d_slice_of_grains_that_move_across_z_is_half_a_layer_about_the_walls_middle_level():
+    """A 3-D bed: the walls keep their lattice levels, the grains have left theirs: the slice is every particle
+    within half a level's spacing of the walls' middle level (brute force)."""
+    rng = np.random.default_rng(4)
+    levels = (np.arange(21) + 0.5) * 1e-3
+    walls = rng.choice(levels, 300)
+    grains = rng.uniform(0.0, 0.021, 3000)
+    z = np.concatenate([walls, grains])
+    keep, mid = middle_layer(z, walls)
+    assert mid == levels[10]                             # the middle level, 10.5 mm
+    assert np.array_equal(keep, np.abs(z - levels[10]) < 0.5e-3)
+    assert 100 < keep[300:].sum() < 190                  # about a 21st of the grains

@@ -8,7 +8,8 @@ by) and the SPH's, as horizontal lines (the same heights against time: ``parsph 
 ``<stem>_interface.png``). Fluid particles are
 coloured by v_x, v_y or theta (one colour scale for every picture of the call, so that they compare);
 wall particles are tan, and the wall planes are lines marked with their velocity. In 3-D the picture
-is a slice: the particles of the lattice layer nearest the middle of z.
+is a slice: the particles of the lattice layer nearest the middle of z (those within half a layer of it, where
+the grains move across z).
 """
 import os
 import re
@@ -30,8 +31,15 @@ def field_values(snap, field):
     return a[:, col] if col is not None else a
 
 
-def middle_layer(z):
-    """Rows of the particles in the z-layer nearest the middle of their z range (a 3-D slice)."""
+def middle_layer(z, lattice=None):
+    """Rows of the particles in the z-layer nearest the middle of their z range (a 3-D slice). ``lattice``: z of
+    particles that keep their lattice levels (a scene's walls), where the others move across z (a bed): the
+    slice is then the particles within half a level's spacing of the middle level."""
+    if lattice is not None and lattice.size:
+        levels = np.unique(np.round(lattice, 12))
+        if levels.size >= 2:
+            mid = levels[np.argmin(np.abs(levels - 0.5 * (levels[0] + levels[-1])))]
+            return np.abs(z - mid) < 0.5 * float(np.min(np.diff(levels))), mid
     levels = np.unique(np.round(z, 12))
     span = levels[-1] - levels[0]
     # levels a hair apart (a layer's particles drifted in z by round-off) are one lattice level
@@ -135,7 +143,7 @@ def figure(snap, field, limits, heights=None):
     keep = np.ones(len(kind), bool)
     where = ""
     if int(a["dim"]) == 3:
-        keep, zmid = middle_layer(pos[:, 2])
+        keep, zmid = middle_layer(pos[:, 2], pos[kind != GRAIN, 2])
         where = f", slice z = {zmid * 1e3:.3g} mm"
     x, y = pos[keep, 0], pos[keep, 1]
     values, k = field_values(snap, field)[keep], kind[keep]
