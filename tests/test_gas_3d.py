@@ -211,3 +211,29 @@ def test_a_3d_bed_writes_its_grid_and_paraview_draws_it_as_a_3d_mesh(tmp_path):
         nodes = f["grid_nodes"][()].reshape(11, 7, 4, 3)
     assert np.allclose(nodes[:, 0, 0, 1], np.arange(11) * hx) and np.allclose(nodes[0, :, 0, 0], np.arange(7) * hy)
     assert np.allclose(nodes[0, 0, :, 2], np.arange(4) * hz)
+
+
+# ---- the band split in two ---------------------------------------------------------------------------------
+@pytest.mark.parametrize("shape", [(12, 9), (9, 6, 4)])
+def test_the_split_band_solves_as_the_whole_band(shape):
+    """Two blocks and a separator (parsph.gas.split_band) against the whole banded Cholesky: the same p' to
+    1e-10, on a random field (2-D: the ring of y folded in each row; 3-D: y and z periodic)."""
+    rng = np.random.default_rng(21)
+    nx, ny = shape[:2]
+    nz = shape[2] if len(shape) == 3 else 1
+    K = rng.uniform(0.01, 10.0, shape)
+    V = rng.normal(size=shape + (len(shape),))
+    sides = (darcy.Side("flux", rng.uniform(0, 1, ny * nz)), darcy.Side("pressure", 0.0))
+    whole = darcy.Darcy(nx, ny, 0.1, 0.15, sides, None, nz=nz, hz=0.12, method="band").solve(K, V)
+    d = darcy.Darcy(nx, ny, 0.1, 0.15, sides, None, nz=nz, hz=0.12, method="split")
+    split = d.solve(K, V)
+    assert d.split and d.factorisations == 1
+    assert np.allclose(split.p, whole.p, rtol=1e-10, atol=1e-12 * np.abs(whole.p).max())
+    assert np.allclose(split.jx, whole.jx, rtol=1e-9, atol=1e-12)
+
+
+def test_a_wide_band_is_split_and_a_narrow_one_is_not():
+    sides = (darcy.Side("flux", 0.5), darcy.Side("pressure", 0.0))
+    assert darcy.Darcy(80, 160, 1e-3, 1e-3, sides, None).split           # the 50,000-particle bed's grid
+    assert not darcy.Darcy(80, 40, 1e-3, 1e-3, sides, None).split        # run/bubbling_bed.toml's
+    assert not darcy.Darcy(20, 10, 1e-3, 1e-3, sides, None, nz=5, hz=1e-3).split  # run/bubbling_bed_3d.toml's

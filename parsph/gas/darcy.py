@@ -37,6 +37,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numba import njit
 
+from .split_band import Local, SplitBand
+
 PERIODIC, FLUX, PRESSURE = 0, 1, 2
 RTOL = 1e-10       # the preconditioned solve's end: max |residual| <= RTOL max |right-hand side|
 # iterations before the solve gives up on the old factor and factorises: a bubbling bed's K moves so fast that
@@ -53,6 +55,14 @@ BAND_MAX = 160
 # SuperLU all the same
 BAND_MAX_3D = 900
 BAND_BYTES = 512 * 2 ** 20
+# a band this wide or wider, numbered x slowest, factorises as two blocks and a separator
+# (:mod:`parsph.gas.split_band`): 80 x 160 cells 7.5 and 6.4 ms a block against 18.3 ms whole, the blocks side by
+# side on two ranks (docs/performance.md, "The band split in two"); narrower bands (every shipped scene's) whole
+SPLIT_MIN = 128
+# a split band tries its kept factor only where no cell's K moved by more than this in log since the factor's K:
+# in run/bubbling_bed.toml's first 300 steps every try that converged had moved at most 0.125 and the tries
+# that failed (6 preconditioned iterations each, then a factorisation) 0.064-1.7, median 0.26
+SPLIT_TRY_CHANGE = 0.2
 KINDS = {"flux": FLUX, "pressure": PRESSURE}
 
 
@@ -270,11 +280,13 @@ class Darcy:
     with the unit G (one matrix, two right-hand sides), superposed with the G that carries the flux.
 
     ``reuse`` False: every solve factorises (the reference the preconditioned solves are measured against).
-    ``method``: "band" or "superlu" (minimum degree) where x has sides, instead of the choice by the band's
-    half-width (benchmarks and tests)."""
+    ``method``: "band", "split" (the band as two blocks and a separator) or "superlu" (minimum degree) where x
+    has sides, instead of the choice by the band's half-width (benchmarks and tests). ``share``: where a split
+    band's blocks are factorised (:class:`parsph.parallel.block_share.BlockShare` over the ranks; default all
+    here); every process of a share must make the same calls."""
 
     def __init__(self, nx, ny, hx, hy, x_sides=None, y_sides=None, mean_flux=None, reuse=True, nz=1, hz=1.0,
-                 method=None):
+                 method=None, share=None):
         if mean_flux is not None and x_sides is not None:
             raise ValueError("a mean flux drives a periodic x only")
         self.mean_flux = mean_flux
@@ -334,15 +346,21 @@ class Darcy:
         self.width = w
         self.banded = (x_sides is not None and w <= (BAND_MAX_3D if nz > 1 else BAND_MAX)
                        and 8 * (w + 1) * n <= BAND_BYTES)
+        natural = nz > 1 or np.array_equal(self.order, np.arange(n))  # x slowest
+        self.split = self.banded and natural and w >= SPLIT_MIN and nx >= 4
         if method is not None:
-            if method not in ("band", "superlu") or x_sides is None:
-                raise ValueError(f"method {method!r}: 'band' or 'superlu', where x has sides")
-            self.banded = method == "band"
+            if method not in ("band", "split", "superlu") or x_sides is None or (method == "split" and not natural):
+                raise ValueError(f"method {method!r}: 'band', 'split' (cells numbered x slowest) or 'superlu', "
+                                 "where x has sides")
+            self.banded = method in ("band", "split")
+            self.split = method == "split"
+        self.share = share or Local()
+        self._split = SplitBand(self.indptr, self.indices, nx, w) if self.split else None
         self.ordered = x_sides is not None and not self.banded  # SuperLU with minimum degree on A + A^T
         self.rhs = np.zeros(n)
         self.unit_rhs = np.zeros(n)
         self.unit_data = np.zeros_like(self.data)
-        self.ab = np.zeros((w + 1, n)) if self.banded else None
+        self.ab = np.zeros((w + 1, n)) if self.banded and not self.split else None
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
         self.factor_K = None
@@ -375,7 +393,11 @@ class Darcy:
 
     def _factorise(self, K):
         n = self.nx * self.ny * self.nz
-        if self.banded:
+        if self.split:
+            split, share = self._split, self.share
+            split.factorise(self.data, share)
+            self._factor = lambda b: split.solve(b, share)
+        elif self.banded:
             self.ab[:] = 0.0
             self.ab[self.band_at] = self.data[self.upper]
             c = sla.cholesky_banded(self.ab, check_finite=False)
@@ -422,6 +444,15 @@ class Darcy:
             rz_old = rz
         return None, MAX_ITER
 
+    def _worth_trying(self, K):
+        """Whether the kept factor is worth a try: always for a whole band; for a split band (its factorisation
+        shared by the ranks, so the tries weigh more against it) where no cell's K moved by more than
+        :data:`SPLIT_TRY_CHANGE` in log since the factor's (a function of what a restart point keeps)."""
+        if not self.split:
+            return True
+        with np.errstate(all="ignore"):
+            return bool(np.abs(np.log(K / self.factor_K)).max() <= SPLIT_TRY_CHANGE)
+
     def solve(self, K, V):
         """p' and the faces' fluxes for K (nx, ny[, nz]) [m^2/(Pa s)] and V (nx, ny[, nz], dim) [m/s]."""
         K = np.ascontiguousarray(K, float)
@@ -438,7 +469,7 @@ class Darcy:
             rhs.append(self.unit_rhs)
         with np.errstate(all="ignore"):
             ps = None
-            if self.reuse and self._factor is not None and self.warm is not None:
+            if self.reuse and self._factor is not None and self.warm is not None and self._worth_trying(K):
                 tried = [self._pcg(b, w) for b, w in zip(rhs, self.warm)]
                 self.iterations = max(it for _, it in tried)
                 if all(x is not None for x, _ in tried):

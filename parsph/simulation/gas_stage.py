@@ -27,13 +27,15 @@ the slip toward the first's j), which halved the gas stage of run/bubbling_bed.t
 rank); the slip in C lags by one evaluation, the drag stays implicit toward this state's j. The very first
 solve of a run, with no j yet, still takes the two.
 
-Every rank solves the same grid (the sums are exact), so every rank count gives the same bits.
+Every rank solves the same grid (the sums are exact), so every rank count gives the same bits; a wide band's two
+blocks (:mod:`parsph.gas.split_band`) are factorised side by side, one a rank.
 """
 import numpy as np
 
 from parsph.errors import SolveError
 from parsph.gas import darcy, deposit, permeability
 from parsph.gas.grid import grid_of
+from parsph.parallel.block_share import BlockShare
 from parsph.parallel.grid_sum import GridSum
 from parsph.physics.drag import STOKES, rate
 from parsph.setup.gas_config import K_MAX_FACTOR
@@ -80,7 +82,7 @@ class GasStage:
             closed = (darcy.Side("flux", np.zeros(g.nx * g.nz)),) * 2 if g.sides else None
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, (darcy.Side("flux", floor_flux(g, gas)),
                                                               darcy.Side("pressure", np.zeros(g.ny * g.nz))), closed,
-                                     nz=g.nz, hz=g.hz)
+                                     nz=g.nz, hz=g.hz, share=BlockShare(comm))
         else:  # periodic along gravity: the mean flux U through every cross-section
             self.darcy = darcy.Darcy(g.nx, g.ny, g.hx, g.hy, None, None, mean_flux=gas.U, nz=g.nz, hz=g.hz)
         self.every = gas.solve_every
