@@ -46,6 +46,8 @@ class SplitBand:
         self.sep = np.arange(m * w, (m + 1) * w)
         rows_of = np.repeat(np.arange(n), np.diff(indptr))
         cols_of = np.asarray(indices)
+        sep = np.full(n, -1)  # a separator cell's place in it
+        sep[self.sep] = np.arange(w)
         self.band = []    # per block: (the entries of data it takes, their places in its upper band)
         self.coupling = []  # per block: (entries, places in D_b (its last w cells x the separator))
         for cells in self.rows:
@@ -56,14 +58,10 @@ class SplitBand:
             self.band.append((np.nonzero(upper)[0], (w + pr[upper] - pc[upper], pc[upper])))
             last = np.full(n, -1)
             last[cells[-w:]] = np.arange(w)
-            sep = np.full(n, -1)
-            sep[self.sep] = np.arange(w)
             couple = (last[rows_of] >= 0) & (sep[cols_of] >= 0)
             self.coupling.append((np.nonzero(couple)[0], (last[rows_of][couple], sep[cols_of][couple])))
-        s_place = np.full(n, -1)
-        s_place[self.sep] = np.arange(w)
-        inside = (s_place[rows_of] >= 0) & (s_place[cols_of] >= 0)
-        self.sep_entries = (np.nonzero(inside)[0], (s_place[rows_of][inside], s_place[cols_of][inside]))
+        inside = (sep[rows_of] >= 0) & (sep[cols_of] >= 0)
+        self.sep_entries = (np.nonzero(inside)[0], (sep[rows_of][inside], sep[cols_of][inside]))
         self.factors = [None] * BLOCKS
         self.D = [None] * BLOCKS
         self.S = None

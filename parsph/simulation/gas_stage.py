@@ -13,7 +13,7 @@ gradient carried 75% of its weight (a cluster's drag is not the drag of its mean
 weighted V 113% (a cluster's particles fall faster than its cell's mean). Two more things keep the sum exact
 where the grains move through the gas (a bubbling bed): the particles' drag uses the rates the last pass
 deposited (``ps.drag_rate``; recomputed at the slip toward the final j, a bubbling bed's pressure drop was 1.9%
-above its weight), and the faces' V is the cells' weighted by 1/K (:func:`parsph.gas.darcy._face_v`; with
+above its weight), and the faces' V is the cells' weighted by 1/K (:func:`parsph.gas.finite_volumes._face_v`; with
 their plain mean, 4.1%).
 
 The coupling: j of the state the passes evaluate, the particles' drag implicit toward it. The gradient part of
@@ -92,7 +92,7 @@ class GasStage:
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
         self.rates = np.zeros(0)
         self.no_stream = np.zeros(3)
-        self.three_d = pass_data.ON if g.dim == 3 else pass_data.OFF  # the velocities' stride (drag_rates)
+        self.three_d = pass_data.switch(g.dim == 3)  # the velocities' stride (drag_rates)
         self.before = (None, None, (None, None))  # what the last call started from (j, solved_at, darcy's start)
         self.earlier = self.before                # and the call before it
         ps.add_field("flux")

@@ -1,0 +1,203 @@
+"""The gas pressure's equation on the grid in finite volumes (docs/physics.md, "The solved gas"): with K =
+eps^2 / beta on the cells and V the solids' velocity, the mixture's volume flux j = V - K grad p' has no
+divergence,
+
+    div(K grad p') = div V,
+
+written on the cell-centred grid (:mod:`parsph.gas.grid`): per cell, the outward fluxes through its faces sum
+to zero, a face's flux (V_f - K_f (p_nb - p_c) / h) times its area, K_f the harmonic mean of the two cells' K
+and V_f their mean weighted by 1/K (both exact for layers in series). The solids do not cross a boundary face
+(V_f = 0 there). A side is periodic, or has a given normal flux (a floor fed at U(y); U = 0 closes it), or a
+given pressure at the face (p' = 0: an open top); a periodic x may carry a mean gradient (``drive``). The
+matrix is symmetric positive definite (semi-definite where no side has a given pressure: then p' is pinned to
+0 in the first cell, as its constant is free).
+
+The loops see every grid as three-dimensional (nx, ny, nz), the cells numbered x slowest, z fastest; a 2-D
+grid has nz = 1 and no faces across z. The solve of the system is :mod:`parsph.gas.darcy`'s.
+"""
+import numpy as np
+from numba import njit
+
+PERIODIC, FLUX, PRESSURE = 0, 1, 2
+
+
+def pattern(nx, ny, nz, x_bounded, y_bounded):
+    """The matrix's pattern (CSR ``indptr``, ``indices``, each row's columns sorted): each cell and its
+    neighbours across inner (or periodic) faces; z periodic, with faces across it where nz > 1."""
+    idx = np.arange(nx * ny * nz).reshape(nx, ny, nz)
+    cols = [idx]
+    for axis, bounded in ((0, x_bounded), (1, y_bounded), (2, False)):
+        if axis == 2 and nz == 1:
+            continue
+        up, down = np.roll(idx, -1, axis), np.roll(idx, 1, axis)
+        if bounded:
+            last = [slice(None)] * 3
+            last[axis] = -1
+            first = [slice(None)] * 3
+            first[axis] = 0
+            up[tuple(last)], down[tuple(first)] = idx[tuple(last)], idx[tuple(first)]
+        cols += [up, down]
+    rows = np.sort(np.stack([c.ravel() for c in cols], axis=1), axis=1)
+    keep = np.ones(rows.shape, bool)
+    keep[:, 1:] = rows[:, 1:] != rows[:, :-1]
+    indptr = np.concatenate([[0], np.cumsum(keep.sum(axis=1))]).astype(np.int64)
+    return indptr, rows[keep].astype(np.int64)
+
+
+@njit(cache=True, inline="always")
+def _harm(a, b):
+    """The face value of K between two cells: 2 a b / (a + b)."""
+    return 2.0 * a * b / (a + b)
+
+
+@njit(cache=True, inline="always")
+def _face_v(Ka, Kb, Va, Vb):
+    """The face value of V between two cells: their mean weighted by resistance 1/K, (K_b V_a + K_a V_b) /
+    (K_a + K_b). With K_f harmonic it is exact for two half cells in series (the same j through both, the
+    pressure drops (h/2)(j - V)/K added): j - V_f = K_f (p_a - p_b) / h. It also makes the faces' drag
+    the cells' own: the sum over the x-faces of (j_f - V_f) / K_f is that of the cells' (j_c - V_c) / K_c
+    (j_c the mean of a cell's two faces), so the pressure drop across a bed is the drag the grains feel."""
+    return (Kb * Va + Ka * Vb) / (Ka + Kb)
+
+
+@njit(cache=True)
+def axis_faces(K, V, axis, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
+    """The mixture's flux along ``axis`` through the faces across it, out (the cells' shape with one more along
+    it), from the solved p' (a given flux where a side gives it); K, p (nx, ny, nz), V (nx, ny, nz, dim).
+    ``drive``: a mean gradient -drive of p' along a periodic axis adds drive K_f to the faces' flux. A side's
+    values are per face, (j, k) flattened on an x side, (i, k) on a y side; z has none (periodic)."""
+    nx, ny, nz = K.shape
+    n = K.shape[axis]
+    o0, o1, o2 = out.shape
+    for a in range(o0):
+        for b in range(o1):
+            for c in range(o2):
+                t = a if axis == 0 else (b if axis == 1 else c)
+                side = b * nz + c if axis == 0 else a * nz + c
+                if 0 < t < n:
+                    lo, hi = t - 1, t
+                elif kind_lo == PERIODIC:
+                    lo, hi = n - 1, 0
+                else:
+                    low = t == 0
+                    cell = 0 if low else n - 1
+                    ia, ib, ic = (cell, b, c) if axis == 0 else ((a, cell, c) if axis == 1 else (a, b, cell))
+                    kind = kind_lo if low else kind_hi
+                    v = vals_lo[side] if low else vals_hi[side]
+                    if kind == FLUX:
+                        out[a, b, c] = v
+                    else:
+                        sign = -1.0 if low else 1.0
+                        out[a, b, c] = -K[ia, ib, ic] * sign * (v - p[ia, ib, ic]) / (0.5 * h)
+                    continue
+                if axis == 0:
+                    la, lb, lc, ha, hb, hc = lo, b, c, hi, b, c
+                elif axis == 1:
+                    la, lb, lc, ha, hb, hc = a, lo, c, a, hi, c
+                else:
+                    la, lb, lc, ha, hb, hc = a, b, lo, a, b, hi
+                Ka, Kb = K[la, lb, lc], K[ha, hb, hc]
+                Kf = _harm(Ka, Kb)
+                out[a, b, c] = (_face_v(Ka, Kb, V[la, lb, lc, axis], V[ha, hb, hc, axis]) + drive * Kf
+                                - Kf * (p[ha, hb, hc] - p[la, lb, lc]) / h)
+
+
+def faces(K, V, h, kinds, values, p, drive):
+    """The mixture's flux through every face along each axis, [jx, jy(, jz)] ((nx + 1, ny, nz), ...), from K,
+    p' (nx, ny, nz) and V (nx, ny, nz, dim); ``drive`` along x only (z periodic)."""
+    out = []
+    for a in range(V.shape[3]):
+        shape = list(K.shape)
+        shape[a] += 1
+        j = np.zeros(shape)
+        lo, hi = (values[2 * a], values[2 * a + 1]) if a < 2 else (values[0], values[0])
+        kind_lo, kind_hi = (kinds[2 * a], kinds[2 * a + 1]) if a < 2 else (PERIODIC, PERIODIC)
+        axis_faces(K, V, a, h[a], kind_lo, kind_hi, lo, hi, p, j, drive if a == 0 else 0.0)
+        out.append(j)
+    return out
+
+
+@njit(cache=True)
+def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, indptr, indices, data, rhs,
+              pin, drive):
+    """The matrix's values (on its fixed pattern ``indptr``, ``indices``, each row's columns sorted) and the
+    right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f + given
+    fluxes) times their areas, g = area K_f / distance; ``drive`` as in :func:`axis_faces`. K (nx, ny, nz),
+    V (nx, ny, nz, dim); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
+    (j, k) flattened on an x side, (i, k) on a y side."""
+    nx, ny, nz = K.shape
+    n = nx * ny * nz
+    nsides = 6 if nz > 1 else 4
+    data[:] = 0.0
+    rhs[:] = 0.0
+    for c in range(n):
+        i = c // (ny * nz)
+        j = (c // nz) % ny
+        k = c % nz
+        row0 = indptr[c]
+        row1 = indptr[c + 1]
+        for side in range(nsides):
+            axis = side // 2
+            up = side % 2 == 1          # the face on the + side of the cell
+            if axis == 0:
+                h, area = hx, hy * hz
+            elif axis == 1:
+                h, area = hy, hx * hz
+            else:
+                h, area = hz, hx * hy
+            ii, jj, kk = i, j, k
+            inside = True
+            if axis == 0:
+                ii = i + 1 if up else i - 1
+                if ii < 0 or ii >= nx:
+                    inside = kinds[0] == PERIODIC
+                    ii = ii % nx
+            elif axis == 1:
+                jj = j + 1 if up else j - 1
+                if jj < 0 or jj >= ny:
+                    inside = kinds[2] == PERIODIC
+                    jj = jj % ny
+            else:
+                kk = (k + 1 if up else k - 1) % nz
+            sign = 1.0 if up else -1.0
+            if inside:
+                Kf = _harm(K[i, j, k], K[ii, jj, kk])
+                g = area * Kf / h
+                vout = sign * _face_v(K[i, j, k], K[ii, jj, kk], V[i, j, k, axis], V[ii, jj, kk, axis])
+                if axis == 0:
+                    vout += sign * drive * Kf
+                rhs[c] -= area * vout
+                nb = (ii * ny + jj) * nz + kk
+                for q in range(row0, row1):
+                    if indices[q] == c:
+                        data[q] += g
+                    if indices[q] == nb:
+                        data[q] -= g
+            else:
+                kind = kinds[2 * axis + (1 if up else 0)]
+                if axis == 0:
+                    v = vals_hi_x[j * nz + k] if up else vals_lo_x[j * nz + k]
+                else:
+                    v = vals_hi_y[i * nz + k] if up else vals_lo_y[i * nz + k]
+                if kind == FLUX:
+                    rhs[c] -= sign * area * v
+                else:
+                    g = area * K[i, j, k] / (0.5 * h)
+                    for q in range(row0, row1):
+                        if indices[q] == c:
+                            data[q] += g
+                    rhs[c] += g * v
+    if pin:
+        for q in range(indptr[0], indptr[1]):
+            if indices[q] == 0:
+                data[q] += data[q] if data[q] != 0.0 else 1.0
+
+
+@njit(cache=True)
+def matvec(indptr, indices, data, x, out):
+    """out = A x for A in CSR form."""
+    for r in range(len(indptr) - 1):
+        acc = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            acc += data[q] * x[indices[q]]
+        out[r] = acc
