@@ -101,7 +101,7 @@ BOX = (5, 4, 3, 0.5, 0.4, 0.3)  # nx, ny, nz, Lx, Ly, Lz
 
 def _deposit(pos, vel, mass, kind, rho_s=2000.0):
     nx, ny, nz, Lx, Ly, Lz = BOX
-    out = np.zeros((5, nx, ny, nz), np.int64)
+    out = np.zeros((nx, ny, nz, 5), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
     deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, nz, Lx / nx, Ly / ny, Lz / nz, Lx, Ly, Lz,
                     True, False, Ly, out, rates, 30.0)
@@ -134,7 +134,7 @@ def test_a_lattice_filling_the_box_deposits_its_theta_in_every_cell():
     pos = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")], axis=1)
     n = len(pos)
     sums = _deposit(pos, np.zeros((n, 3)), np.full(n, rho_s * theta0 * d ** 3), np.zeros(n, np.int64), rho_s)
-    np.testing.assert_allclose(sums[0] / deposit.SCALE, theta0, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(sums[..., 0] / deposit.SCALE, theta0, rtol=0, atol=1e-9)
     at = _interpolate(pos, np.zeros(n, np.int64), np.full((nx, ny, nz, 1), 2.5))
     np.testing.assert_allclose(at[:, 0], 2.5, rtol=1e-14)
 
@@ -147,7 +147,7 @@ def test_deposit_conserves_volume_and_drag_and_interpolation_is_its_transpose():
     fluid = kind == GRAIN
     vol = (Lx / nx) * (Ly / ny) * (Lz / nz)
     rounding = 8 * fluid.sum() * 0.5 / deposit.SCALE * vol  # each of the 8 terms a particle adds rounds once
-    assert abs(sums[0].sum() / deposit.SCALE * vol - (mass[fluid] / rho_s).sum()) <= rounding
+    assert abs(sums[..., 0].sum() / deposit.SCALE * vol - (mass[fluid] / rho_s).sum()) <= rounding
     C = 100.0 * np.abs(vel[fluid, 0])
     R, V_R = deposit.resistance_of(sums, rho_s, 30.0)
     assert V_R.shape == (nx, ny, nz, 3)
@@ -160,7 +160,7 @@ def test_deposit_conserves_volume_and_drag_and_interpolation_is_its_transpose():
     f = np.random.default_rng(1).normal(size=(nx, ny, nz, 1))
     at = _interpolate(pos, kind, f)
     lhs = (mass[fluid] / rho_s * at[fluid, 0]).sum()
-    assert lhs == pytest.approx((f[..., 0] * sums[0] / deposit.SCALE).sum() * vol, rel=1e-10)
+    assert lhs == pytest.approx((f[..., 0] * sums[..., 0] / deposit.SCALE).sum() * vol, rel=1e-10)
     assert np.all(at[~fluid] == 0.0)
 
 

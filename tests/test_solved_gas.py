@@ -172,10 +172,10 @@ def _particles(n, Lx, Ly, seed=2):
 
 
 def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0, sides=False, ring=None):
-    out = np.zeros((4, nx, ny), np.int64)
+    out = np.zeros((nx, ny, 4), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
     deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, 1, Lx / nx, Ly / ny, 1.0, Lx, Ly, 0.0, True,
-                    sides, ring or Ly, out[..., None], rates, 30.0)
+                    sides, ring or Ly, out[:, :, None], rates, 30.0)
     return out
 
 
@@ -201,7 +201,7 @@ def test_side_walls_fold_the_deposit_so_a_uniform_state_stays_uniform():
     mass = np.full(n, rho_s * theta0 * d * d)
     kind, vel = np.zeros(n, np.int64), np.zeros((n, 2))
     sums = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s, sides=True, ring=ring)
-    np.testing.assert_allclose(sums[0] / deposit.SCALE, theta0, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(sums[..., 0] / deposit.SCALE, theta0, rtol=0, atol=1e-9)
     shifted = pos.copy()
     shifted[::3, 1] += ring
     shifted[1::3, 1] -= ring
@@ -217,7 +217,7 @@ def test_deposit_conserves_volume_and_drag_in_any_order():
     fluid = kind == GRAIN
     area = Lx / nx * Ly / ny
     rounding = 4 * fluid.sum() * 0.5 / deposit.SCALE * area  # each of the 4 terms a particle adds rounds once
-    assert abs(sums[0].sum() / deposit.SCALE * area - (mass[fluid] / rho_s).sum()) <= rounding
+    assert abs(sums[..., 0].sum() / deposit.SCALE * area - (mass[fluid] / rho_s).sum()) <= rounding
     # the resistance: sum of m C over the particles (C = 100 |v_x| here), and of m C v (the drag's velocity)
     C = 100.0 * np.abs(vel[fluid, 0])
     R, V_R = deposit.resistance_of(sums, rho_s, 30.0)
@@ -241,7 +241,7 @@ def test_interpolation_is_the_deposits_transpose():
     pos, vel, mass, kind = _particles(300, Lx, Ly, seed=4)
     f = np.random.default_rng(1).normal(size=(nx, ny, 1))
     at = _interpolate(pos, kind, f, nx, ny, Lx, Ly)
-    theta = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)[0] / deposit.SCALE
+    theta = _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly)[..., 0] / deposit.SCALE
     fluid = kind == GRAIN
     lhs = (mass[fluid] / rho_s * at[fluid, 0]).sum()
     rhs = (f[:, :, 0] * theta).sum() * (Lx / nx) * (Ly / ny)

@@ -8,10 +8,10 @@ core: 80 x 160 cells, half-width 160, 20.6 ms the band and 19.6 ms SuperLU; 160 
 142 ms). A band of :data:`SPLIT_MIN` or wider factorises as two blocks and a separator, one block a rank
 (:mod:`parsph.gas.split_band`).
 
-A factorisation costs 20 times its use (5.4 ms against 0.29 on 37 x 112 cells), and K changes little from
-one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
+A factorisation costs about 20 times its use (2 ms against 0.11 on 38 x 112 cells), and K changes little
+from one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
 preconditioned with it, started from the last solve's p' (:data:`RTOL`: until every cell's flux imbalance
-is below 1e-10 of the largest given one); a solve that needs more than :data:`REFRESH_ITER` iterations makes
+is below 1e-10 of the largest given one), a whole band's iteration compiled (:mod:`parsph.gas.band_pcg`); a solve that needs more than :data:`REFRESH_ITER` iterations makes
 the next one factorise afresh, and one that has not converged in :data:`MAX_ITER` factorises at once. What a
 solve starts from (the factor's K and the warm start) is :meth:`Darcy.start`, which a restart point keeps
 so that a restarted run makes the same solves. A matrix that is not positive definite or a non-finite result
@@ -27,6 +27,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from . import band_pcg
 from . import finite_volumes as fv
 from .finite_volumes import FLUX, PERIODIC, PRESSURE
 from .split_band import Local, SplitBand
@@ -175,6 +176,8 @@ class Darcy:
         self.unit_rhs = np.zeros(n)
         self.unit_data = np.zeros_like(self.data)
         self.ab = np.zeros((w + 1, n)) if self.banded and not self.split else None
+        self._scratch = np.zeros((5, n)) if self.ab is not None else None  # band_pcg.pcg's vectors
+        self._band = None      # a whole band's factor (its transpose, the band's order), for band_pcg
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
         self.factor_K = None
@@ -207,6 +210,7 @@ class Darcy:
 
     def _factorise(self, K):
         n = self.nx * self.ny * self.nz
+        self._band = None
         if self.split:
             split, share = self._split, self.share
             split.factorise(self.data, share)
@@ -214,12 +218,13 @@ class Darcy:
         elif self.banded:
             self.ab[:] = 0.0
             self.ab[self.band_at] = self.data[self.upper]
-            c = sla.cholesky_banded(self.ab, check_finite=False)
-            order = self.order
+            T = np.ascontiguousarray(sla.cholesky_banded(self.ab, check_finite=False).T)
+            band = self._band = (T, np.ascontiguousarray(self.order, np.int64))
+            work = self._scratch[4]
 
             def factor(b):
                 x = np.empty_like(b)
-                x[order] = sla.cho_solve_banded((c, False), b[order], check_finite=False)
+                band_pcg.band_solve(*band, b, x, work)
                 return x
             self._factor = factor
         else:
@@ -234,6 +239,11 @@ class Darcy:
     def _pcg(self, b, x0):
         """A x = b by conjugate gradients preconditioned with the kept factor, from x0; (x, iterations), x
         None where it has not converged in MAX_ITER."""
+        if self._band is not None:  # compiled: the same iteration with the band's sweeps (band_pcg)
+            x = x0.copy()
+            it = band_pcg.pcg(self.indptr, self.indices, self.data, *self._band, b, x, RTOL, MAX_ITER,
+                              self._scratch)
+            return (x, it) if it >= 0 else (None, MAX_ITER)
         scale = np.abs(b).max()
         if scale == 0.0:
             return np.zeros_like(b), 0

@@ -74,7 +74,7 @@ class GasStage:
                             Lz=cfg.Lz if cfg.dim == 3 else 0.0)
         self.ring = cfg.Ly_ring  # the particles' period along y
         g = self.grid
-        self.sums = np.zeros((2 + g.dim,) + g.shape, np.int64)  # theta, R, R v (deposit.deposit)
+        self.sums = np.zeros(g.shape + (2 + g.dim,), np.int64)  # theta, R, R v per cell (deposit.deposit)
         self.exchange = GridSum(comm)
         self.rate_ref = reference_rate(cfg)
         self.K_max = permeability_cap(cfg)
@@ -179,7 +179,7 @@ class GasStage:
             self.sums[:] = 0
             deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.nz, g.hx, g.hy,
                             g.hz, g.nx * g.hx, g.ny * g.hy, g.nz * g.hz, g.walls, g.sides, self.ring,
-                            self.sums.reshape(self.sums.shape[:1] + g.shape3), self.rates, self.rate_ref)
+                            self.sums.reshape(g.shape3 + self.sums.shape[-1:]), self.rates, self.rate_ref)
             self.exchange(self.sums)
             theta = deposit.theta_of(self.sums)
             R, V = deposit.resistance_of(self.sums, self.rho_s, self.rate_ref)

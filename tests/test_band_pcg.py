@@ -1,0 +1,63 @@
+"""The compiled uses of a banded Cholesky factor (parsph.gas.band_pcg) against scipy: the direct solve against
+LAPACK's dpbtrs (scipy.linalg.cho_solve_banded), the preconditioned conjugate gradients against a sparse LU
+solve of the same matrix."""
+import numpy as np
+import pytest
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from parsph.gas import band_pcg
+
+
+def _band(n, w, seed):
+    """A random symmetric positive definite band matrix: its upper form (w + 1, n) and as CSR."""
+    rng = np.random.default_rng(seed)
+    ab = np.zeros((w + 1, n))
+    ab[:w] = -rng.random((w, n))
+    ab[w] = 2.0 * w + 1.0  # diagonally dominant
+    for r in range(w):  # the unused corner of the upper form
+        ab[r, :w - r] = 0.0
+    upper = sp.triu(sp.dia_matrix((ab[::-1], np.arange(0, w + 1)), shape=(n, n)), 1)
+    A = (sp.diags(ab[w]) + upper + upper.T).tocsr()
+    A.sort_indices()
+    return ab, A
+
+
+@pytest.mark.parametrize("n, w", [(200, 7), (50, 1), (9, 12), (300, 33)])
+def test_band_solve_is_lapacks_in_any_order(n, w):
+    ab, _ = _band(n, w, 1)
+    c = sla.cholesky_banded(ab, check_finite=False)
+    rng = np.random.default_rng(2)
+    order = rng.permutation(n).astype(np.int64)
+    b = rng.normal(size=n)
+    x = np.empty(n)
+    band_pcg.band_solve(np.ascontiguousarray(c.T), order, b, x, np.empty(n))
+    ref = np.empty(n)
+    ref[order] = sla.cho_solve_banded((c, False), b[order])
+    np.testing.assert_allclose(x, ref, rtol=0, atol=1e-14 * np.abs(ref).max())
+
+
+def test_preconditioned_cg_converges_to_the_sparse_lu_solve():
+    """The factor of a nearby matrix (each entry off by up to 5%) preconditions A: the iteration reaches
+    max |r| <= rtol max |b|, its x agrees with SuperLU's to that tolerance; with one iteration allowed it does
+    not converge (-1); a NaN in b is no convergence either."""
+    n, w = 400, 20
+    ab, A = _band(n, w, 3)
+    near = ab * (1.0 + 0.05 * np.random.default_rng(4).uniform(-1, 1, ab.shape))
+    c = sla.cholesky_banded(near, check_finite=False)
+    T, order = np.ascontiguousarray(c.T), np.arange(n, dtype=np.int64)
+    b = np.random.default_rng(5).normal(size=n)
+    x = np.zeros(n)
+    scratch = np.zeros((5, n))
+    its = band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, x, 1e-12, 50, scratch)
+    assert 1 < its < 50
+    ref = spla.splu(A.tocsc()).solve(b)
+    assert np.abs(A @ x - b).max() <= 1e-12 * np.abs(b).max()
+    np.testing.assert_allclose(x, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
+    assert band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, np.zeros(n), 1e-12, 1,
+                        scratch) == -1
+    bad = b.copy()
+    bad[7] = np.nan
+    assert band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, bad, np.zeros(n), 1e-12, 50,
+                        scratch) == -1
