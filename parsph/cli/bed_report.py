@@ -28,11 +28,11 @@ RISE_EXPECTED = 0.25  # reference 8: a bubble rises at c sqrt(g D) within about 
 def bed_run(p):
     """The run's RunConfig where it is a bed in the solved gas past Wallis's bound, else None; p is
     read_profile's."""
-    from parsph.setup.scenes import layer
     from .layer_report import layer_run
     cfg = layer_run(p)
     if cfg is None or cfg.gas is None or not cfg.gas.solved or not cfg.gas.U > 0:
         return None
+    from parsph.setup.scenes import layer  # its references import scipy: not for every run's closing check
     return cfg if layer.numbers(cfg).past_wallis else None
 
 

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import math
 
 import numpy as np
-from scipy import ndimage
 
 MIN_CELLS = {2: 4, 3: 8}  # a bubble smaller than 2 x 2 (x 2) cells is not resolved by the grid
 MATCH_AREA = 1.5       # a pair whose areas differ by more than this factor split or merged: no rise velocity
@@ -81,6 +80,7 @@ def find(theta, hx, hy, threshold, periodic=(False, True), open_top=None, hz=Non
     dim = theta.ndim
     h = (hx, hy, hz)[:dim]
     periodic = tuple(periodic) + (True,) * (dim - len(periodic))
+    from scipy import ndimage  # on first use: bed_report imports this module in every run's closing check
     labels, n = ndimage.label(theta < threshold)
     if n == 0:
         return []

@@ -36,7 +36,6 @@ from parsph.sph.rates import Rates
 from . import block, start
 from .compiled_steps import CompiledSteps, native_route
 from .frames import Frames
-from .gas_stage import GasStage
 from .guards import bounds_of, run_checks
 from .integrator import Integrator
 from .list_keeper import ListKeeper
@@ -70,7 +69,10 @@ class Simulation:
         if cfg.gas is not None:
             ps.add_field("drag_coef")
             ps.add_field("drag_rate", vector=False)
-        self.gas = GasStage(cfg, comm, ps) if cfg.gas is not None and cfg.gas.solved else None
+        self.gas = None
+        if cfg.gas is not None and cfg.gas.solved:
+            from .gas_stage import GasStage  # with scipy's solvers: only where the gas is solved
+            self.gas = GasStage(cfg, comm, ps)
         if self.gas is not None and state is not None and "path" in state:
             grid = read_grid(state["path"])
             if grid is not None:  # a file without /grid: the first solve factorises
