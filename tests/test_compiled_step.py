@@ -50,6 +50,11 @@ CASES = {
     "fluidized_bed": ("fluidized_bed.toml", (SHORT, "domain.L=0.004", "numerics.Nx=20", "scene.height=0.0016",
                                              "output.t_end=0.02", "numerics.dt=1e-4",
                                              'numerics.integrator="midpoint"')),
+    # the solved gas: the block returns for the gas stage at each evaluation and resumes (the midpoint's middle
+    # one, a step's last, a new list's first), Gidaspow's slip-dependent closure under the auto rule
+    "bed_solved": ("fluidized_bed.toml", (SHORT, "domain.L=0.004", "numerics.Nx=20", "scene.height=0.0016",
+                                          "output.t_end=0.02", 'numerics.integrator="midpoint"', 'gas.flow="solved"',
+                                          'gas.drag="gidaspow"', 'numerics.dt="auto"')),
 }
 
 WATCHDOG_S = 300  # a rank stuck in a collective ends the job with every thread's traceback

@@ -90,7 +90,7 @@ SUITE = [
     ("fluidized_bed.toml", ["numerics.dt=5e-5"], 1),
     ("fluidized_bed.toml", ["numerics.dt=5e-5"], 2),
     ("fluidized_bed.toml", ["numerics.dt=1e-4", "numerics.integrator=midpoint"], 1),
-    # the solved gas (the Python path's passes, the grid's loops): scene_ranks' bed (1 thread and 2) and its 3-D
+    # the solved gas (its blocks, the grid's loops): scene_ranks' bed (1 thread and 2) and its 3-D
     # bed, the voidage waves of test_solved_gas_runs (a box periodic along gravity)
     ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 1),
     ("fluidized_bed.toml", ["numerics.dt=5e-5", 'gas.flow="solved"'], 2),

@@ -22,7 +22,11 @@ when something happens there:
 - ``NEED_LIMIT``: (auto dt) the largest theta is in a bucket whose linear
   limit Python has not computed yet (``Rule.linear``); nothing of the step
   is done yet;
-- ``MPI_ERROR``: an MPI call failed.
+- ``MPI_ERROR``: an MPI call failed;
+- ``GAS``: (the solved gas, ``gas`` on) an evaluation stands between Eq. (3) and Eq. (5), the particles'
+  theta known: Python runs the gas stage (its solve is scipy's and LAPACK's) and calls the block again,
+  which resumes where it returned (``control``'s ``resume``: after a step's last evaluation, after the
+  midpoint's middle one, or after the evaluation of a new list's state), with Eq. (5).
 
 Every decision is taken from all-reduced values or from the step count, so
 every rank returns at the same step with the same code.
@@ -42,7 +46,11 @@ from parsph.sph.particles import drag_maximum, state_maxima
 from parsph.physics.limits import landing, state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
 
-EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK = range(9)
+EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK, GAS = range(10)
+# where a block resumes after GAS (control's resume): nowhere (a fresh start), after a step's last evaluation,
+# after the midpoint's middle evaluation, after the evaluation of the state as it is (eval_first)
+FRESH, AFTER_END, AFTER_MID, AFTER_FIRST = range(4)
+_STEP = -2  # run_block's phase: a step from its start
 # the block's clock and its exchanges with Python: one record (``control``, an array of one element of
 # this type, read and written by field name on both sides)
 CONTROL = np.dtype([
@@ -56,6 +64,7 @@ CONTROL = np.dtype([
     ("land", np.bool_),         # the last step landed on t_target
     ("checked", np.int64),      # the last step whose checks the block ran
     ("reflected", np.int64),    # grains this rank's walls.reflect put back on a plate
+    ("resume", np.int64),       # where the block resumes after GAS (FRESH: it does not)
 ])
 # timers (float64 seconds), in the solver's phase names
 TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
@@ -101,6 +110,7 @@ class Modes(NamedTuple):
     threaded: tuple
     implicit: tuple   # the gas's drag implicit in v (numerics.drag_update; integrators)
     drag_limit: bool  # the auto rule's drag limit dt <= 1/C_max (explicit drag)
+    gas: tuple        # the solved gas: each evaluation returns GAS between Eq. (3) and Eq. (5)
 
 
 @njit(cache=True)
@@ -136,10 +146,11 @@ def _density(lst, parts, c, sw, gather, threaded):
 
 
 @njit(cache=True)
-def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, timers):
-    """The owned particles' rho and factors, the ghosts' rho (one round), their factors, Eq. (5).
-    ``mirror`` (``sw.mirror``) as an argument of its own: numba prunes its branches before typing, so a
-    block without such walls compiles none of their passes (a field of ``sw`` would type them)."""
+def _factors(plan, lst, parts, c, sw, threaded, mirror, timers):
+    """The owned particles' rho and factors, the ghosts' rho (one round), their factors: what Eq. (5) and the
+    solved gas's stage read. ``mirror`` (``sw.mirror``) as an argument of its own: numba prunes its branches
+    before typing, so a block without such walls compiles none of their passes (a field of ``sw`` would type
+    them)."""
     t0 = wtime()
     n, n_own = lst.n, parts.n_own
     start = np.int64(0)  # not the literal 0: one version of the passes for both calls
@@ -154,26 +165,47 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, timers):
     t2 = wtime()
     if len(threaded):
         momentum.particle_factors(lst, parts, c, sw, n_own, n)
-        momentum.momentum_threaded(lst, parts, c, sw, gather)
     else:
         momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
-        momentum.momentum_serial(lst, parts, c, sw)
-    if len(mirror):
-        walls.forces(lst, parts, c, sw)
-    t3 = wtime()
     timers[DENSITY] += t1 - t0
     timers[HALO] += t2 - t1
-    timers[FORCES] += t3 - t2
+    timers[FORCES] += wtime() - t2
     return err
 
 
+@njit(cache=True)
+def _forces(lst, parts, c, sw, gather, threaded, mirror, timers):
+    """Eq. (5) and the body force of the owned particles (the mirrored walls' forces too)."""
+    t0 = wtime()
+    if len(threaded):
+        momentum.momentum_threaded(lst, parts, c, sw, gather)
+    else:
+        momentum.momentum_serial(lst, parts, c, sw)
+    if len(mirror):
+        walls.forces(lst, parts, c, sw)
+    timers[FORCES] += wtime() - t0
+
+
 @njit(cache=True, inline="always")
-def evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
-    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__)."""
+def _after_density(plan, lst, parts, c, sw, gather, threaded, gas, timers):
+    """After Eq. (3): the factors and the ghosts' rho, then Eq. (5), or GAS before it (``gas``). Returns -1
+    when the rates are computed, GAS, or MPI_ERROR."""
+    if _factors(plan, lst, parts, c, sw, threaded, sw.mirror, timers):
+        return MPI_ERROR
+    if len(gas):
+        return GAS
+    _forces(lst, parts, c, sw, gather, threaded, sw.mirror, timers)
+    return -1
+
+
+@njit(cache=True, inline="always")
+def evaluate(plan, lst, parts, c, sw, gather, threaded, gas, timers):
+    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__); -1, GAS or
+    MPI_ERROR (:func:`_after_density`)."""
     t0 = wtime()
     _density(lst, parts, c, sw, gather, threaded)
     timers[DENSITY] += wtime() - t0
-    return _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, timers)
+    return _after_density(plan, lst, parts, c, sw, gather, threaded, gas, timers)
 
 
 @njit(cache=True)
@@ -217,11 +249,12 @@ def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
 
 
 @njit(cache=True, inline="always")
-def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control, flags,
+def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, gas, control, flags,
                    flags_all, bad, skin, timers, req, stat):
     """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
     the block's code (BAD, REBUILD; :func:`run_block` makes them BAD_MID, REBUILD_MID at the midpoint
-    integrator's middle evaluation). A stop agreed here is kept in ``control``'s stop_out.
+    integrator's middle evaluation; GAS before Eq. (5) with the solved gas). A stop agreed here is kept in
+    ``control``'s stop_out.
 
     Eq. (3) runs while the flags' all-reduce is in flight (it writes only the list's sums, which a
     rebuild or a bad state discards): the wait for the all-reduce comes after the pass, so a rank that
@@ -242,22 +275,25 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
         control[0].stop_out = flags_all[1]
     if flags_all[2] != 0.0:
         return REBUILD
-    if _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, timers):
-        return MPI_ERROR
-    return -1
+    return _after_density(plan, lst, parts, c, sw, gather, threaded, gas, timers)
 
 
 @njit(cache=True)
 def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, rule, lim, midpoint, dt_auto,
-              threaded, implicit, drag_limit, control, timers, scratch, req, stat):
+              threaded, implicit, drag_limit, gas, control, timers, scratch, req, stat):
     """Whole steps from a state whose rates are computed, until a code of the module doc; returns it.
 
     ``control`` (one record of :data:`CONTROL`) holds the clock (t, dt, step) and the exchanges with
     Python (the target time, the step to stop at, stop and forced-rebuild flags in, a stop out, whether
-    to evaluate the rates of the state first, the last step checked); ``lim`` the checks' bounds
-    (guards.Bounds); ``midpoint`` .. ``drag_limit`` the fields of :class:`Modes`; ``timers`` gets the
-    phases' seconds; ``scratch`` (N_SCRATCH float64) the all-reduces' buffers, by the named slices above;
-    ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
+    to evaluate the rates of the state first, the last step checked, where to resume after GAS); ``lim``
+    the checks' bounds (guards.Bounds); ``midpoint`` .. ``gas`` the fields of :class:`Modes`; ``timers``
+    gets the phases' seconds; ``scratch`` (N_SCRATCH float64) the all-reduces' buffers, by the named slices
+    above; ``req``, ``stat`` (native_mpi.requests(1)) the sync's all-reduce in flight.
+
+    A step runs as phases, so that a block can return for the gas stage in the middle of one and resume
+    there: from its start (dt, the integration or the midpoint's prediction and middle evaluation), after
+    the middle evaluation (the correction), after the integration (the sync and the last evaluation), and
+    its tail (the checks, a stop, the landing).
     """
     flags, flags_all = scratch[FLAGS], scratch[FLAGS_ALL]
     maxima, maxima_all = scratch[MAXIMA], scratch[MAXIMA_ALL]
@@ -268,64 +304,89 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     pos, vel, acc, kind, drag = parts.pos, parts.vel, parts.acc, parts.kind, parts.drag_coef
     n_own = parts.n_own
     ctl = control[0]
-    if ctl.eval_first:  # the rates of the state as it is (a list was just built)
+    phase = _STEP
+    if ctl.resume != FRESH:  # the gas stage of the evaluation the block returned in is done: Eq. (5)
+        _forces(lst, parts, c, sw, gather, threaded, sw.mirror, timers)
+        phase = _STEP if ctl.resume == AFTER_FIRST else ctl.resume
+        ctl.resume = FRESH
+    elif ctl.eval_first:  # the rates of the state as it is (a list was just built)
         ctl.eval_first = False
-        if evaluate(plan, lst, parts, c, sw, gather, threaded, timers):
+        code = evaluate(plan, lst, parts, c, sw, gather, threaded, gas, timers)
+        if code == GAS:
+            ctl.resume = AFTER_FIRST
+            return GAS
+        if code >= 0:
             return MPI_ERROR
-    while ctl.step < ctl.stop_step:
-        # -- the step's dt
-        land = False
-        if dt_auto:
-            dt = _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit)
-            if dt == -2.0:
-                return MPI_ERROR
-            if dt < 0.0:
-                return NEED_LIMIT
-            dt, land = landing(dt, ctl.t_target - ctl.t)
-        else:
-            dt = rule.dt
-        ctl.dt = dt
-        ctl.land = land
-        # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
-        t0 = wtime()
-        if len(midpoint):
-            if len(threaded):
-                bad = integrators.midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                   motion.jump, rule.h, drag, implicit)
+    bad = False
+    t0 = 0.0
+    while True:
+        if phase == _STEP:
+            if not ctl.step < ctl.stop_step:
+                return EVENT
+            # -- the step's dt
+            land = False
+            if dt_auto:
+                dt = _auto_dt(plan, parts, rule, maxima, maxima_all, drag_limit)
+                if dt == -2.0:
+                    return MPI_ERROR
+                if dt < 0.0:
+                    return NEED_LIMIT
+                dt, land = landing(dt, ctl.t_target - ctl.t)
             else:
-                bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                          motion.jump, rule.h, drag, implicit)
-            if len(sw.mirror):
-                ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
-            timers[INTEGRATE] += wtime() - t0
-            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control,
-                                  flags, flags_all, bad, rule.skin, timers, req, stat)
-            if code >= 0:
-                return BAD_MID if code == BAD else REBUILD_MID if code == REBUILD else code
+                dt = rule.dt
+            ctl.dt = dt
+            ctl.land = land
+            # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
+            t0 = wtime()
+            if len(midpoint):
+                if len(threaded):
+                    bad = integrators.midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                                                       motion.jump, rule.h, drag, implicit)
+                else:
+                    bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0,
+                                                              motion.vel0, motion.jump, rule.h, drag, implicit)
+                if len(sw.mirror):
+                    ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
+                timers[INTEGRATE] += wtime() - t0
+                code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded,
+                                      gas, control, flags, flags_all, bad, rule.skin, timers, req, stat)
+                if code == GAS:
+                    ctl.resume = AFTER_MID
+                    return GAS
+                if code >= 0:
+                    return BAD_MID if code == BAD else REBUILD_MID if code == REBUILD else code
+                phase = AFTER_MID
+            elif len(threaded):
+                bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
+            else:
+                bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag,
+                                                    implicit)
+        if phase == AFTER_MID:
             t0 = wtime()
             if len(threaded):
-                bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, ctl.dt, motion.pos0, motion.vel0,
                                                    motion.jump, rule.h, drag, implicit)
             else:
-                bad = integrators.midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                          motion.jump, rule.h, drag, implicit)
-        elif len(threaded):
-            bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
-        else:
-            bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
-        if len(sw.mirror):
-            ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
-        ctl.step += 1
-        if dt_auto:
-            ctl.t = ctl.t_target if land else ctl.t + dt
-        else:
-            ctl.t = ctl.step * rule.dt
-        timers[INTEGRATE] += wtime() - t0
-        # -- sync, and the rates of the new state
-        code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, control,
-                              flags, flags_all, bad, rule.skin, timers, req, stat)
-        if code >= 0:
-            return code
+                bad = integrators.midpoint_correct_serial(pos, vel, acc, kind, n_own, ctl.dt, motion.pos0,
+                                                          motion.vel0, motion.jump, rule.h, drag, implicit)
+        if phase != AFTER_END:
+            if len(sw.mirror):
+                ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
+            ctl.step += 1
+            if dt_auto:
+                ctl.t = ctl.t_target if ctl.land else ctl.t + ctl.dt
+            else:
+                ctl.t = ctl.step * rule.dt
+            timers[INTEGRATE] += wtime() - t0
+            # -- sync, and the rates of the new state
+            code = _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, gas,
+                                  control, flags, flags_all, bad, rule.skin, timers, req, stat)
+            if code == GAS:
+                ctl.resume = AFTER_END
+                return GAS
+            if code >= 0:
+                return code
+        # -- the step's tail
         if ctl.step % lim.every == 0:  # the run-time checks, before a stop as Python's loop orders them
             t0 = wtime()
             failed = _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all)
@@ -337,6 +398,6 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                 return CHECK
         if ctl.stop_out != 0.0:  # agreed at this step's syncs: the step is done, its rates computed
             return STOP
-        if land:
+        if ctl.land:
             return EVENT
-    return EVENT
+        phase = _STEP

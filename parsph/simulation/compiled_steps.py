@@ -19,8 +19,11 @@ class CompiledSteps:
     """Runs blocks on the parts it is given: the particles, the slab ring, the list, the passes, the
     integrator and the run-time checks' bounds; adds its phase seconds into ``timers``."""
 
-    def __init__(self, cfg, ps, ring, neighbours, rates, integrator, bounds, skin, timers):
+    def __init__(self, cfg, ps, ring, neighbours, rates, integrator, bounds, skin, timers, gas=None):
+        """``gas(step, t, middle)``: the solved gas's stage, run where a block returns GAS (None: no solved gas);
+        ``middle``: at the midpoint integrator's middle evaluation."""
         self.cfg, self.ps, self.ring, self.neighbours, self.rates = cfg, ps, ring, neighbours, rates
+        self.gas = gas
         self.integrator, self.bounds, self.timers = integrator, bounds, timers
         self.control = np.zeros(1, block.CONTROL)  # the block's clock and its exchanges with Python
         self.scratch = np.zeros(block.N_SCRATCH)
@@ -48,7 +51,7 @@ class CompiledSteps:
             threaded = dispatch.threaded()
             sw = pass_data.switch
             modes = Modes(sw(integ.midpoint), bool(cfg.dt_auto), sw(threaded), integ.implicit,
-                          bool(integ.explicit_drag))
+                          bool(integ.explicit_drag), sw(self.gas is not None))
             self._modes = modes
             self._args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), Motion(*integ.motion(ps)),
                           N.cells, N.local, N.box, N.work, R.consts, R.switches,
@@ -75,11 +78,29 @@ class CompiledSteps:
         ctl["t"], ctl["dt"], ctl["step"] = timeline.t, timeline.dt, timeline.step
         ctl["t_target"], ctl["stop_step"] = target, stop_step
         ctl["stop_in"], ctl["force_in"], ctl["stop_out"] = stop_in, force_in, 0.0
-        code = self._block()(*self._args)
+        return self._call(timeline)
+
+    def _call(self, timeline):
+        """The block, and again after each GAS it returns once the gas stage has run at the state it stopped
+        at (``timeline`` advanced to it first: a failed solve writes that state; the block resumes where it
+        returned); ``timeline`` is advanced to where the last call returned."""
+        fn = self._block()
+        ctl = self.control
+        code = fn(*self._args)
         self.calls += 1
-        timeline.t, timeline.dt, timeline.step = float(ctl["t"][0]), float(ctl["dt"][0]), int(ctl["step"][0])
+        while code == block.GAS:
+            self._add_timers()
+            self._clock_to(timeline)
+            self.gas(timeline.step, timeline.t, int(ctl["resume"][0]) == block.AFTER_MID)
+            code = fn(*self._args)
+            self.calls += 1
         self._add_timers()
+        self._clock_to(timeline)
         return code
+
+    def _clock_to(self, timeline):
+        ctl = self.control
+        timeline.t, timeline.dt, timeline.step = float(ctl["t"][0]), float(ctl["dt"][0]), int(ctl["step"][0])
 
     def evaluate(self, timeline):
         """Eq. (3), the ghosts' rho, Eq. (5) of the current state, in the compiled block (no step)."""
@@ -88,9 +109,8 @@ class CompiledSteps:
         ctl["t"], ctl["dt"], ctl["step"] = timeline.t, timeline.dt, timeline.step
         ctl["t_target"], ctl["stop_step"] = timeline.t, timeline.step
         ctl["stop_in"], ctl["force_in"], ctl["stop_out"] = 0.0, False, 0.0
-        if self._block()(*self._args) == block.MPI_ERROR:
+        if self._call(timeline) == block.MPI_ERROR:
             raise RuntimeError("an MPI call of the compiled step failed")
-        self._add_timers()
 
     def field(self, name):
         """A field of the record as Python reads it (``stop_out``, ``checked``, ``land``, ``t_target``)."""

@@ -88,7 +88,7 @@ class Simulation:
         self.bounds = bounds_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
         self.frames = Frames(cfg, self.grid, self.collect)
         self.blocks = CompiledSteps(cfg, ps, self.ring, self.neighbours, self.rates, self.integrator, self.bounds,
-                                    self.skin, self.timers)
+                                    self.skin, self.timers, None if self.gas is None else self._gas_stage_at)
         self.stop = 0            # a stop signal agreed by every rank
         self._checked = -1       # the last step whose checks a compiled block ran
         self._fresh = False      # the rates are those of the current state
@@ -118,8 +118,18 @@ class Simulation:
 
     def _gas_stage(self, ps):
         """The solved gas between Eq. (3) and Eq. (5): the particles' theta of this state is known."""
+        self._gas_stage_at(self.step, self.t)
+
+    def _gas_stage_at(self, step, t, middle=False):
+        """The same where a compiled block returned for it, at its state's ``step`` and ``t``; ``middle``: at
+        the midpoint's middle evaluation, where a failed solve puts the particles back at the step's start."""
         t0 = self.clock()
-        self.gas(ps, self.step, self.t)
+        try:
+            self.gas(self.ps, step, t)
+        except SolveError:
+            if middle:
+                self._back_to_step_start()
+            raise
         self.timers["gas"] += self.clock() - t0
 
     def _sync(self):
@@ -309,7 +319,7 @@ class Simulation:
         BLOCK_SECONDS of them), in compiled blocks that run the checks too where the messages can be sent
         from compiled code, else one step."""
         target = self.timeline.target(pending)
-        if not self.native or self.gas is not None:  # the gas's solve is Python's, between the sync and the passes
+        if not self.native:
             self.python_step(stop_requested, target)
             return
         stop_step = self.timeline.stop_step(pending, most or self.blocks.steps)
