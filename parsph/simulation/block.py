@@ -146,36 +146,38 @@ def _density(lst, parts, c, sw, gather, threaded):
 
 
 @njit(cache=True)
-def _factors(plan, lst, parts, c, sw, threaded, mirror, timers):
-    """The owned particles' rho and factors, the ghosts' rho (one round), their factors: what Eq. (5) and the
-    solved gas's stage read. ``mirror`` (``sw.mirror``) as an argument of its own: numba prunes its branches
-    before typing, so a block without such walls compiles none of their passes (a field of ``sw`` would type
-    them)."""
-    t0 = wtime()
-    n, n_own = lst.n, parts.n_own
-    start = np.int64(0)  # not the literal 0: one version of the passes for both calls
-    if len(mirror):
-        walls.renormalise(lst, parts, c, sw)
-    if len(threaded):
-        momentum.particle_factors(lst, parts, c, sw, start, n_own)
-    else:
-        momentum.particle_factors_serial(lst, parts, c, sw, start, n_own)
-    t1 = wtime()
-    err = native_halo.refresh(plan, parts.rho, n_own)
-    t2 = wtime()
-    if len(threaded):
-        momentum.particle_factors(lst, parts, c, sw, n_own, n)
-    else:
-        momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
-    timers[DENSITY] += t1 - t0
-    timers[HALO] += t2 - t1
-    timers[FORCES] += wtime() - t2
-    return err
-
-
-@njit(cache=True)
-def _forces(lst, parts, c, sw, gather, threaded, mirror, timers):
-    """Eq. (5) and the body force of the owned particles (the mirrored walls' forces too)."""
+def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, gas, forces_only, timers):
+    """After Eq. (3): the owned particles' rho and factors, the ghosts' rho (one round), their factors, then
+    Eq. (5) and the body force, or GAS before them (``gas``: the solved gas's stage reads the factors);
+    ``forces_only`` (np.bool_, not a literal: one version for both): Eq. (5) alone, where a block resumes after
+    GAS. Returns -1 when the rates are computed,
+    GAS, or MPI_ERROR. ``mirror`` (``sw.mirror``) as an argument of its own: numba prunes its branches before
+    typing, so a block without such walls compiles none of their passes (a field of ``sw`` would type them).
+    One function for both parts: each of them a function of its own cost a tenth more compiling a block."""
+    if not forces_only:
+        t0 = wtime()
+        n, n_own = lst.n, parts.n_own
+        start = np.int64(0)  # not the literal 0: one version of the passes for both calls
+        if len(mirror):
+            walls.renormalise(lst, parts, c, sw)
+        if len(threaded):
+            momentum.particle_factors(lst, parts, c, sw, start, n_own)
+        else:
+            momentum.particle_factors_serial(lst, parts, c, sw, start, n_own)
+        t1 = wtime()
+        err = native_halo.refresh(plan, parts.rho, n_own)
+        t2 = wtime()
+        if len(threaded):
+            momentum.particle_factors(lst, parts, c, sw, n_own, n)
+        else:
+            momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
+        timers[DENSITY] += t1 - t0
+        timers[HALO] += t2 - t1
+        timers[FORCES] += wtime() - t2
+        if err:
+            return MPI_ERROR
+        if len(gas):
+            return GAS
     t0 = wtime()
     if len(threaded):
         momentum.momentum_threaded(lst, parts, c, sw, gather)
@@ -184,17 +186,6 @@ def _forces(lst, parts, c, sw, gather, threaded, mirror, timers):
     if len(mirror):
         walls.forces(lst, parts, c, sw)
     timers[FORCES] += wtime() - t0
-
-
-@njit(cache=True, inline="always")
-def _after_density(plan, lst, parts, c, sw, gather, threaded, gas, timers):
-    """After Eq. (3): the factors and the ghosts' rho, then Eq. (5), or GAS before it (``gas``). Returns -1
-    when the rates are computed, GAS, or MPI_ERROR."""
-    if _factors(plan, lst, parts, c, sw, threaded, sw.mirror, timers):
-        return MPI_ERROR
-    if len(gas):
-        return GAS
-    _forces(lst, parts, c, sw, gather, threaded, sw.mirror, timers)
     return -1
 
 
@@ -205,7 +196,7 @@ def evaluate(plan, lst, parts, c, sw, gather, threaded, gas, timers):
     t0 = wtime()
     _density(lst, parts, c, sw, gather, threaded)
     timers[DENSITY] += wtime() - t0
-    return _after_density(plan, lst, parts, c, sw, gather, threaded, gas, timers)
+    return _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.bool_(False), timers)
 
 
 @njit(cache=True)
@@ -275,7 +266,7 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
         control[0].stop_out = flags_all[1]
     if flags_all[2] != 0.0:
         return REBUILD
-    return _after_density(plan, lst, parts, c, sw, gather, threaded, gas, timers)
+    return _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.bool_(False), timers)
 
 
 @njit(cache=True)
@@ -306,7 +297,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     ctl = control[0]
     phase = _STEP
     if ctl.resume != FRESH:  # the gas stage of the evaluation the block returned in is done: Eq. (5)
-        _forces(lst, parts, c, sw, gather, threaded, sw.mirror, timers)
+        _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.bool_(True), timers)
         phase = _STEP if ctl.resume == AFTER_FIRST else ctl.resume
         ctl.resume = FRESH
     elif ctl.eval_first:  # the rates of the state as it is (a list was just built)
