@@ -103,11 +103,12 @@ class CompiledSteps:
         timeline.t, timeline.dt, timeline.step = float(ctl["t"][0]), float(ctl["dt"][0]), int(ctl["step"][0])
 
     def evaluate(self, timeline):
-        """Eq. (3), the ghosts' rho, Eq. (5) of the current state, in the compiled block (no step)."""
+        """Eq. (3), the ghosts' rho, Eq. (5) of the current state, in the compiled block (no step: the record's
+        landing, ``land`` and ``t_target``, stays as the last step left it, for the driver to finish that step)."""
         ctl = self.control
         ctl["eval_first"] = True
         ctl["t"], ctl["dt"], ctl["step"] = timeline.t, timeline.dt, timeline.step
-        ctl["t_target"], ctl["stop_step"] = timeline.t, timeline.step
+        ctl["stop_step"] = timeline.step
         ctl["stop_in"], ctl["force_in"], ctl["stop_out"] = 0.0, False, 0.0
         if self._call(timeline) == block.MPI_ERROR:
             raise RuntimeError("an MPI call of the compiled step failed")

@@ -355,13 +355,12 @@ class Simulation:
         """The rest of a step a block returned in: act on the agreed flags (checks, build), the rates
         (a compiled evaluation of the new list); at the midpoint, the second half and the step's last
         sync too."""
-        land, target = bool(self.blocks.field("land")), float(self.blocks.field("t_target"))  # evaluate resets them
         self._act(self.blocks.agreed_flags())
         self.blocks.evaluate(self.timeline)
         if code in (block.REBUILD_MID, block.BAD_MID):
             self._count_step(self.dt, self._correct(self.dt))
-            if land:
-                self.t = target
+            if self.blocks.field("land"):
+                self.t = float(self.blocks.field("t_target"))
             self.compute_rates()
 
     def python_step(self, stop_requested=None, target=None):
