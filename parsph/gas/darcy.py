@@ -11,11 +11,11 @@ core: 80 x 160 cells, half-width 160, 20.6 ms the band and 19.6 ms SuperLU; 160 
 A factorisation costs about 20 times its use (2 ms against 0.11 on 38 x 112 cells), and K changes little
 from one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
 preconditioned with it, started from the last solve's p' (:data:`RTOL`: until every cell's flux imbalance
-is below 1e-10 of the largest given one), a whole band's iteration compiled (:mod:`parsph.gas.band_pcg`); a solve that needs more than :data:`REFRESH_ITER` iterations makes
-the next one factorise afresh, and one that has not converged in :data:`MAX_ITER` factorises at once. What a
-solve starts from (the factor's K and the warm start) is :meth:`Darcy.start`, which a restart point keeps
-so that a restarted run makes the same solves. A matrix that is not positive definite or a non-finite result
-raises :class:`SolveFailed`.
+is below 1e-10 of the largest given one; a whole band's iteration compiled, :mod:`parsph.gas.band_pcg`); a
+solve that needs more than :data:`REFRESH_ITER` iterations makes the next one factorise afresh, and one that
+has not converged in :data:`MAX_ITER` factorises at once. What a solve starts from (the factor's K and the
+warm start) is :meth:`Darcy.start`, which a restart point keeps so that a restarted run makes the same solves.
+A matrix that is not positive definite or a non-finite result raises :class:`SolveFailed`.
 
 :class:`Darcy` keeps the matrix's pattern of one grid and its sides, and fills its values, the right-hand side
 and the fluxes with :mod:`parsph.gas.finite_volumes`' loops.

@@ -130,15 +130,10 @@ def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y
     nsides = 6 if nz > 1 else 4
     data[:] = 0.0
     rhs[:] = 0.0
-    i, j, k = 0, 0, -1
-    for c in range(n):  # c = (i ny + j) nz + k, counted (integer divisions per cell cost a third of the loop)
-        k += 1
-        if k == nz:
-            k = 0
-            j += 1
-            if j == ny:
-                j = 0
-                i += 1
+    for c in range(n):
+        i = c // (ny * nz)
+        j = (c // nz) % ny
+        k = c % nz
         row0 = indptr[c]
         row1 = indptr[c + 1]
         for side in range(nsides):
