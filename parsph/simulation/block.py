@@ -103,14 +103,15 @@ class Modes(NamedTuple):
 
     ``midpoint``, ``threaded``, ``implicit`` are compile-time (pass_data.switch values): numba prunes a branch
     on an empty tuple's ``len`` before typing only for an argument, so that a serial block compiles no
-    ``parallel=True`` pass and no midpoint integrator. ``dt_auto`` and ``drag_limit`` are run-time flags: a
-    branch a step, and one version serves both values (each a switch compiled a block of its own, about 4 s)."""
+    ``parallel=True`` pass and no midpoint integrator. ``dt_auto``, ``drag_limit`` and ``gas`` are run-time
+    flags: a branch an evaluation or a step, and one version serves both values (each a switch compiled a
+    block of its own, about 5 s)."""
     midpoint: tuple
     dt_auto: bool
     threaded: tuple
     implicit: tuple   # the gas's drag implicit in v (numerics.drag_update; integrators)
     drag_limit: bool  # the auto rule's drag limit dt <= 1/C_max (explicit drag)
-    gas: tuple        # the solved gas: each evaluation returns GAS between Eq. (3) and Eq. (5)
+    gas: bool         # the solved gas: each evaluation returns GAS between Eq. (3) and Eq. (5)
 
 
 @njit(cache=True)
@@ -176,7 +177,7 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, gas, force
         timers[FORCES] += wtime() - t2
         if err:
             return MPI_ERROR
-        if len(gas):
+        if gas:
             return GAS
     t0 = wtime()
     if len(threaded):

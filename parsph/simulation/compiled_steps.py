@@ -51,7 +51,7 @@ class CompiledSteps:
             threaded = dispatch.threaded()
             sw = pass_data.switch
             modes = Modes(sw(integ.midpoint), bool(cfg.dt_auto), sw(threaded), integ.implicit,
-                          bool(integ.explicit_drag), sw(self.gas is not None))
+                          bool(integ.explicit_drag), self.gas is not None)
             self._modes = modes
             self._args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), Motion(*integ.motion(ps)),
                           N.cells, N.local, N.box, N.work, R.consts, R.switches,
