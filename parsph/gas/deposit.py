@@ -136,12 +136,21 @@ def resistance_of(sums, rho_s, rate_ref):
     0 where R = 0): the cell's particles feel the drag R (W - V_R) for a target W, so that with K = 1 / R and
     W = V_R - K grad p' the grid's -grad p' is the sum of their drag."""
     dim = sums.shape[-1] - 2
-    R = sums[..., 1] / RATE_SCALE * (rho_s * rate_ref)
-    V = np.zeros(sums.shape[:-1] + (dim,))
-    some = sums[..., 1] > 0
-    for c in range(dim):
-        V[some, c] = sums[..., 2 + c][some] / sums[..., 1][some]
+    R = np.empty(sums.shape[:-1])
+    V = np.empty(sums.shape[:-1] + (dim,))
+    _resistance(sums.reshape(-1, dim + 2), rho_s * rate_ref, R.reshape(-1), V.reshape(-1, dim))
     return R, V
+
+
+@njit(cache=True)
+def _resistance(sums, scale, R, V):
+    """resistance_of over the cells in a row: one pass, no temporaries (the same operations, the same bits)."""
+    dim = V.shape[1]
+    for k in range(sums.shape[0]):
+        s = sums[k, 1]
+        R[k] = s / RATE_SCALE * scale
+        for c in range(dim):
+            V[k, c] = sums[k, 2 + c] / s if s > 0 else 0.0
 
 
 def theta_of(sums):

@@ -1,7 +1,7 @@
 """The gas solve's blocks over the ranks (:mod:`parsph.gas.split_band`): block b is rank b's (modulo the ranks:
 one rank does both), its results sent to every rank by a broadcast from its owner, and a failure agreed before
 any broadcast, so that no rank waits on one that raised."""
-from mpi4py import MPI
+from .collectives import any_rank
 
 
 class BlockShare:
@@ -18,4 +18,4 @@ class BlockShare:
         return array
 
     def agree_failed(self, failed):
-        return bool(self.comm.allreduce(int(failed), op=MPI.MAX))
+        return any_rank(self.comm, failed)

@@ -10,6 +10,16 @@ import numpy as np
 from mpi4py import MPI
 
 
+def any_rank(comm, flag):
+    """Whether ``flag`` holds on any rank: one all-reduce of a one-element buffer (nothing pickled; none on
+    one rank), for the agreements made at every solve."""
+    if comm.size == 1:
+        return bool(flag)
+    buf = np.array([1 if flag else 0], np.int64)
+    comm.Allreduce(MPI.IN_PLACE, buf, op=MPI.MAX)
+    return bool(buf[0])
+
+
 class Collectives:
     def __init__(self, comm):
         self.comm = comm

@@ -5,6 +5,8 @@ particles (a cell holds several), so the whole of it travels: a slab's columns a
 and are the way to a grid that outgrows one rank's memory."""
 from mpi4py import MPI
 
+from .collectives import any_rank
+
 
 class GridSum:
     def __init__(self, comm):
@@ -19,4 +21,4 @@ class GridSum:
     def agree_failed(self, failed):
         """Whether the solve failed on any rank (each solves the same grid; they fail alike, but no rank may
         be left waiting should one differ)."""
-        return bool(self.comm.allreduce(int(failed), op=MPI.MAX))
+        return any_rank(self.comm, failed)
