@@ -151,10 +151,10 @@ def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, gas, force
     """After Eq. (3): the owned particles' rho and factors, the ghosts' rho (one round), their factors, then
     Eq. (5) and the body force, or GAS before them (``gas``: the solved gas's stage reads the factors);
     ``forces_only`` (np.bool_, not a literal: one version for both): Eq. (5) alone, where a block resumes after
-    GAS. Returns -1 when the rates are computed,
-    GAS, or MPI_ERROR. ``mirror`` (``sw.mirror``) as an argument of its own: numba prunes its branches before
-    typing, so a block without such walls compiles none of their passes (a field of ``sw`` would type them).
-    One function for both parts: each of them a function of its own cost a tenth more compiling a block."""
+    GAS. Returns -1 when the rates are computed, GAS, or MPI_ERROR. ``mirror`` (``sw.mirror``) as an argument
+    of its own: numba prunes its branches before typing, so a block without such walls compiles none of their
+    passes (a field of ``sw`` would type them). One function for both parts: each of them a function of its
+    own cost a tenth more compiling a block."""
     if not forces_only:
         t0 = wtime()
         n, n_own = lst.n, parts.n_own
