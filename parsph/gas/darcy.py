@@ -146,6 +146,7 @@ class Darcy:
         self.pin = not np.any(self.kinds == PRESSURE)
         n = nx * ny * nz
         self.indptr, self.indices = fv.pattern(nx, ny, nz, x_sides is not None, y_sides is not None)
+        self.places = fv.places(self.indptr, self.indices, nx, ny, nz)  # where the assembly adds
         self.data = np.zeros(len(self.indices))
         # the band where x has sides (upper form: ab[w + r - c, c] = A[r, c] for c >= r, in the band's order)
         if nz > 1:  # x slowest: half-width ny nz
@@ -205,7 +206,7 @@ class Darcy:
             K = np.ascontiguousarray(factor_K, float)
             K3 = K.reshape(self.nx, self.ny, self.nz)
             fv.assemble(K3, np.zeros(K3.shape + (self.dim,)), self.hx, self.hy, self.hz, self.kinds, *self.values,
-                      self.indptr, self.indices, self.data, np.zeros(K.size), self.pin, 0.0)
+                      *self.places, self.data, np.zeros(K.size), self.pin, 0.0)
             self._factorise(K)
 
     def _factorise(self, K):
@@ -284,11 +285,10 @@ class Darcy:
         shape3 = (self.nx, self.ny, self.nz)
         K3, V3 = K.reshape(shape3), V.reshape(shape3 + (self.dim,))
         h = (self.hx, self.hy, self.hz)
-        fv.assemble(K3, V3, *h, self.kinds, *self.values, self.indptr, self.indices, self.data, self.rhs, self.pin,
-                  0.0)
+        fv.assemble(K3, V3, *h, self.kinds, *self.values, *self.places, self.data, self.rhs, self.pin, 0.0)
         rhs = [self.rhs]
         if self.mean_flux is not None:  # the unit gradient's right-hand side, on the same matrix
-            fv.assemble(K3, np.zeros_like(V3), *h, self.kinds, *self.values, self.indptr, self.indices,
+            fv.assemble(K3, np.zeros_like(V3), *h, self.kinds, *self.values, *self.places,
                       self.unit_data, self.unit_rhs, self.pin, 1.0)
             rhs.append(self.unit_rhs)
         with np.errstate(all="ignore"):

@@ -118,79 +118,101 @@ def faces(K, V, h, kinds, values, p, drive):
 
 
 @njit(cache=True)
-def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, indptr, indices, data, rhs,
-              pin, drive):
-    """The matrix's values (on its fixed pattern ``indptr``, ``indices``, each row's columns sorted) and the
-    right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f + given
-    fluxes) times their areas, g = area K_f / distance; ``drive`` as in :func:`axis_faces`. K (nx, ny, nz),
-    V (nx, ny, nz, dim); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
-    (j, k) flattened on an x side, (i, k) on a y side."""
-    nx, ny, nz = K.shape
+def places(indptr, indices, nx, ny, nz):
+    """Where :func:`assemble` adds on the pattern ``indptr``, ``indices``: per cell c its diagonal's place in
+    ``data`` (``diag[c]``), and per cell and side (-x, +x, -y, +y, -z, +z) the place of the neighbour across it,
+    the axis wrapped (``across[c, side]``; -1 where the row holds no such column). Found once per pattern, so
+    that the assembly does not search each row for them."""
     n = nx * ny * nz
+    diag = np.full(n, -1, np.int64)
+    across = np.full((n, 6), -1, np.int64)
+    nbs = np.empty(6, np.int64)
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                c = (i * ny + j) * nz + k
+                nbs[0] = (((i - 1) % nx) * ny + j) * nz + k
+                nbs[1] = (((i + 1) % nx) * ny + j) * nz + k
+                nbs[2] = (i * ny + (j - 1) % ny) * nz + k
+                nbs[3] = (i * ny + (j + 1) % ny) * nz + k
+                nbs[4] = (i * ny + j) * nz + (k - 1) % nz
+                nbs[5] = (i * ny + j) * nz + (k + 1) % nz
+                for q in range(indptr[c], indptr[c + 1]):
+                    col = indices[q]
+                    if col == c:
+                        diag[c] = q
+                    else:
+                        for side in range(6):
+                            if col == nbs[side]:
+                                across[c, side] = q
+    return diag, across
+
+
+@njit(cache=True)
+def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, diag, across, data, rhs, pin,
+             drive):
+    """The matrix's values (on its fixed pattern, whose places :func:`places` gives as ``diag``, ``across``)
+    and the right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f +
+    given fluxes) times their areas, g = area K_f / distance; ``drive`` as in :func:`axis_faces`. K (nx, ny, nz),
+    V (nx, ny, nz, dim); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
+    (j, k) flattened on an x side, (i, k) on a y side. A cell's sides in the order -x, +x, -y, +y(, -z, +z):
+    its diagonal and right-hand side sum them in that order."""
+    nx, ny, nz = K.shape
     nsides = 6 if nz > 1 else 4
     data[:] = 0.0
     rhs[:] = 0.0
-    for c in range(n):
-        i = c // (ny * nz)
-        j = (c // nz) % ny
-        k = c % nz
-        row0 = indptr[c]
-        row1 = indptr[c + 1]
-        for side in range(nsides):
-            axis = side // 2
-            up = side % 2 == 1          # the face on the + side of the cell
-            if axis == 0:
-                h, area = hx, hy * hz
-            elif axis == 1:
-                h, area = hy, hx * hz
-            else:
-                h, area = hz, hx * hy
-            ii, jj, kk = i, j, k
-            inside = True
-            if axis == 0:
-                ii = i + 1 if up else i - 1
-                if ii < 0 or ii >= nx:
-                    inside = kinds[0] == PERIODIC
-                    ii = ii % nx
-            elif axis == 1:
-                jj = j + 1 if up else j - 1
-                if jj < 0 or jj >= ny:
-                    inside = kinds[2] == PERIODIC
-                    jj = jj % ny
-            else:
-                kk = (k + 1 if up else k - 1) % nz
-            sign = 1.0 if up else -1.0
-            if inside:
-                Kf = _harm(K[i, j, k], K[ii, jj, kk])
-                g = area * Kf / h
-                vout = sign * _face_v(K[i, j, k], K[ii, jj, kk], V[i, j, k, axis], V[ii, jj, kk, axis])
-                if axis == 0:
-                    vout += sign * drive * Kf
-                rhs[c] -= area * vout
-                nb = (ii * ny + jj) * nz + kk
-                for q in range(row0, row1):
-                    if indices[q] == c:
-                        data[q] += g
-                    if indices[q] == nb:
-                        data[q] -= g
-            else:
-                kind = kinds[2 * axis + (1 if up else 0)]
-                if axis == 0:
-                    v = vals_hi_x[j * nz + k] if up else vals_lo_x[j * nz + k]
-                else:
-                    v = vals_hi_y[i * nz + k] if up else vals_lo_y[i * nz + k]
-                if kind == FLUX:
-                    rhs[c] -= sign * area * v
-                else:
-                    g = area * K[i, j, k] / (0.5 * h)
-                    for q in range(row0, row1):
-                        if indices[q] == c:
-                            data[q] += g
-                    rhs[c] += g * v
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                c = (i * ny + j) * nz + k
+                for side in range(nsides):
+                    axis = side // 2
+                    up = side % 2 == 1          # the face on the + side of the cell
+                    if axis == 0:
+                        h, area = hx, hy * hz
+                    elif axis == 1:
+                        h, area = hy, hx * hz
+                    else:
+                        h, area = hz, hx * hy
+                    ii, jj, kk = i, j, k
+                    inside = True
+                    if axis == 0:
+                        ii = i + 1 if up else i - 1
+                        if ii < 0 or ii >= nx:
+                            inside = kinds[0] == PERIODIC
+                            ii = ii % nx
+                    elif axis == 1:
+                        jj = j + 1 if up else j - 1
+                        if jj < 0 or jj >= ny:
+                            inside = kinds[2] == PERIODIC
+                            jj = jj % ny
+                    else:
+                        kk = (k + 1 if up else k - 1) % nz
+                    sign = 1.0 if up else -1.0
+                    if inside:
+                        Kf = _harm(K[i, j, k], K[ii, jj, kk])
+                        g = area * Kf / h
+                        vout = sign * _face_v(K[i, j, k], K[ii, jj, kk], V[i, j, k, axis], V[ii, jj, kk, axis])
+                        if axis == 0:
+                            vout += sign * drive * Kf
+                        rhs[c] -= area * vout
+                        data[diag[c]] += g
+                        data[across[c, side]] -= g
+                    else:
+                        kind = kinds[2 * axis + (1 if up else 0)]
+                        if axis == 0:
+                            v = vals_hi_x[j * nz + k] if up else vals_lo_x[j * nz + k]
+                        else:
+                            v = vals_hi_y[i * nz + k] if up else vals_lo_y[i * nz + k]
+                        if kind == FLUX:
+                            rhs[c] -= sign * area * v
+                        else:
+                            g = area * K[i, j, k] / (0.5 * h)
+                            data[diag[c]] += g
+                            rhs[c] += g * v
     if pin:
-        for q in range(indptr[0], indptr[1]):
-            if indices[q] == 0:
-                data[q] += data[q] if data[q] != 0.0 else 1.0
+        q = diag[0]
+        data[q] += data[q] if data[q] != 0.0 else 1.0
 
 
 @njit(cache=True)
