@@ -81,10 +81,12 @@ class SplitBand:
             corner = np.zeros((w, w))
             if share.mine(b):
                 take, at = self.band[b]
-                ab = np.zeros((w + 1, self.rows[b].size))
+                # in LAPACK's (Fortran) order and factorised in place: scipy would copy a C-ordered band into
+                # that order first (8 MB a block on 80 x 160 cells: 11-13 against 8.5-9 ms; the same bits)
+                ab = np.zeros((w + 1, self.rows[b].size), order="F")
                 ab[at] = data[take]
                 try:
-                    c = sla.cholesky_banded(ab, check_finite=False)
+                    c = sla.cholesky_banded(ab, overwrite_ab=True, check_finite=False)
                 except np.linalg.LinAlgError:
                     failed = True
                 else:
