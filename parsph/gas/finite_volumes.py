@@ -161,7 +161,7 @@ def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y
     nsides = 6 if nz > 1 else 4
     data[:] = 0.0
     rhs[:] = 0.0
-    for i in range(nx):
+    for i in range(nx):  # nested loops, not i, j, k divided out of c: 10-14% faster (docs/performance.md)
         for j in range(ny):
             for k in range(nz):
                 c = (i * ny + j) * nz + k
