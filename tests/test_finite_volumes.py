@@ -10,6 +10,13 @@ from parsph.gas import finite_volumes as fv
 P, F, Q = fv.PERIODIC, fv.FLUX, fv.PRESSURE
 
 
+def _cell(axis, i, a, c):
+    """The index (x, y, z) of the cell i along ``axis``, a and c along the next two axes (cyclically)."""
+    idx = [0, 0, 0]
+    idx[axis], idx[(axis + 1) % 3], idx[(axis + 2) % 3] = i, a, c
+    return tuple(idx)
+
+
 def dense(K, V, h, kinds, values, drive):
     """A and b of the finite volumes, face by face (numpy, dense)."""
     nx, ny, nz = K.shape
@@ -18,23 +25,19 @@ def dense(K, V, h, kinds, values, drive):
     cell = np.arange(n).reshape(nx, ny, nz)
     areas = (h[1] * h[2], h[0] * h[2], h[0] * h[1])
     for axis in range(3 if nz > 1 else 2):
-        m = K.shape[axis]
+        m, area = K.shape[axis], areas[axis]
         periodic = axis == 2 or kinds[2 * axis] == P
-        for face in range(m + 1 if not periodic else m):  # face f lies below cell f along the axis
-            lo_idx, hi_idx = face - 1, face
+        for face in range(m if periodic else m + 1):  # face f lies below cell f along the axis
             for a in range(K.shape[(axis + 1) % 3]):
                 for c in range(K.shape[(axis + 2) % 3]):
-                    def at(i):
-                        idx = [0, 0, 0]
-                        idx[axis], idx[(axis + 1) % 3], idx[(axis + 2) % 3] = i % m, a, c
-                        return tuple(idx)
-                    area = areas[axis]
                     if periodic or 0 < face < m:  # an inner face between lo and hi
-                        lo, hi = at(lo_idx), at(hi_idx)
+                        lo, hi = _cell(axis, (face - 1) % m, a, c), _cell(axis, face, a, c)
                         Kl, Kh = K[lo], K[hi]
-                        g = area * (2 * Kl * Kh / (Kl + Kh)) / h[axis]
+                        Kf = 2 * Kl * Kh / (Kl + Kh)
+                        g = area * Kf / h[axis]
                         Vf = (Kh * V[lo + (axis,)] + Kl * V[hi + (axis,)]) / (Kl + Kh)
-                        Vf += drive * (2 * Kl * Kh / (Kl + Kh)) if axis == 0 else 0.0
+                        if axis == 0:
+                            Vf += drive * Kf
                         i, j = cell[lo], cell[hi]
                         A[i, i] += g
                         A[j, j] += g
@@ -44,11 +47,11 @@ def dense(K, V, h, kinds, values, drive):
                         b[j] += area * Vf   # into hi through its - face
                         continue
                     up = face == m  # the high side's face of the last cell, else the low side's of the first
-                    inner = at(m - 1 if up else 0)
-                    kind = kinds[2 * axis + (1 if up else 0)]
-                    v = values[2 * axis + (1 if up else 0)][a * nz + c if axis == 0 else c * nz + a]  # (j, k) or (i, k)
+                    inner = _cell(axis, m - 1 if up else 0, a, c)
+                    side = 2 * axis + (1 if up else 0)
+                    v = values[side][a * nz + c if axis == 0 else c * nz + a]  # per (j, k) or (i, k)
                     i = cell[inner]
-                    if kind == F:
+                    if kinds[side] == F:
                         b[i] -= (1.0 if up else -1.0) * area * v
                     else:
                         g = area * K[inner] / (0.5 * h[axis])
