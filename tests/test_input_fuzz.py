@@ -64,7 +64,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E
 
 from reliability_helpers import common as C  # noqa: E402
 
-from parsph.setup import config  # noqa: E402
+from parsph.setup import config, memory  # noqa: E402
 from parsph.setup.runfile import RunFile  # noqa: E402
 from parsph.errors import ConfigError  # noqa: E402
 from parsph.setup.schema import REQUIRED, SCHEMA  # noqa: E402
@@ -697,7 +697,7 @@ def _cli_property(ranks, case, example):
     else:
         assert key is None or case == "huge Nx", f"{case}: {key} accepted in process"
         if case == "huge Nx":
-            need = cfg.n_particles * config.bytes_per_particle(cfg)
+            need = cfg.n_particles * memory.bytes_per_particle(cfg)
             assert need > 0.8 * MEMORY, f"Nx = {cfg.Nx}: {need / 1e9:.3g} GB fits"
     with tempfile.TemporaryDirectory() as d:
         d = Path(d)
@@ -797,7 +797,7 @@ def test_memory_check_for_huge_particle_counts(data):
         COUNTS["memory check (stubbed memory), refused earlier"] += 1
         assert e.key != "numerics.Nx" or "GB" not in str(e), e
         return
-    need = cfg.n_particles * config.bytes_per_particle(cfg)
+    need = cfg.n_particles * memory.bytes_per_particle(cfg)
     # memory from far below to far above the need, on 1 to 4 nodes of 1 to 8 ranks each
     mem = int(need * 10 ** data.draw(st.floats(-3.0, 3.0)))
     hosts = data.draw(st.integers(1, 4))

@@ -1,4 +1,4 @@
-"""The memory estimate that refuses runs too large for the nodes (``config.bytes_per_particle``) against
+"""The memory estimate that refuses runs too large for the nodes (``memory.bytes_per_particle``) against
 the memory a real set-up takes.
 
 A fresh process builds the paper case (2-D) and 3-D Couette at two sizes each,
@@ -28,7 +28,7 @@ CHILD = r"""
 import gc, json, sys
 from mpi4py import MPI
 import numba
-from parsph.setup import config
+from parsph.setup import config, memory
 from parsph.simulation.solver import Simulation
 
 
@@ -60,7 +60,7 @@ for name, path, sizes in json.loads(sys.argv[2]):
             f.write("5")  # VmHWM := VmRSS
         before = status("VmRSS")
         cfg, sim = run(path, over)
-        out[name].append([cfg.n_particles, status("VmHWM") - before, config.bytes_per_particle(cfg, numba.get_num_threads())])
+        out[name].append([cfg.n_particles, status("VmHWM") - before, memory.bytes_per_particle(cfg, numba.get_num_threads())])
         del sim
         gc.collect()
 print(json.dumps(out))

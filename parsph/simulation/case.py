@@ -17,7 +17,7 @@ from parsph.errors import ConfigError, UsageError, agree
 from parsph.output import Output
 from parsph.parallel import slabs
 from parsph.physics.kernels import get_kernel
-from parsph.setup.config import bytes_per_particle
+from parsph.setup.memory import bytes_per_particle
 from parsph.sph.cells import grid_for
 from .solver import Simulation
 
