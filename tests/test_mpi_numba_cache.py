@@ -5,7 +5,8 @@ Serial pytest launching the processes itself (skipped inside an mpirun job):
     .venv/bin/python -m pytest -q tests/test_mpi_numba_cache.py
 
 The module's first job is a 3-rank ``parsph run`` on a NUMBA_CACHE_DIR of its own
-that lacks the density and momentum passes: every rank compiles them and writes
+that lacks the evaluation's stages (``simulation/stages.py``: Eq. (3), and the factors, the ghosts' rho and
+Eq. (5)), which a run's first evaluation calls: every rank compiles them and writes
 the same entries at once (the rest of the cache is a copy of parsph's own, which
 the set-up fills, so that the module compiles only what it tests; without a
 set-up the job compiles everything, as before). That run also shows what a run
@@ -25,7 +26,8 @@ from parsph.cli.progress import COMPILING  # noqa: E402
 pytestmark = pytest.mark.skipif(launch.under_mpirun(), reason="launches mpirun itself (nested mpirun fails)")
 
 FEW_STEPS = str(launch.HELPERS / "few_steps.py")
-FRESH = ("density.density_serial-", "momentum.momentum_serial-")  # compiled by the first job, on 3 ranks at once
+FRESH = ("stages.density-", "stages.after_density-")  # compiled by the first job, on 3 ranks at once
+FUNCTIONS = tuple(f[:-1] for f in FRESH)
 
 
 def data_files(cache, function):
@@ -44,7 +46,7 @@ def first_job(tmp_path_factory):
     The module compiles once and every test below starts from this cache (the limit only catches a hang)."""
     cache = tmp_path_factory.mktemp("numba_cache") / "numba"
     launch.seed_cache(cache, skip=FRESH)
-    assert not any(data_files(cache, f) for f in ("density.density_serial", "momentum.momentum_serial"))
+    assert not any(data_files(cache, f) for f in FUNCTIONS)
     out = tmp_path_factory.mktemp("first_run")
     sets = ["domain.Ly=0.0024", "output.t_end=3e-5", "output.times=[3e-5]", "output.progress_interval=1e-6"]
     cmd = launch.parsph_cmd("run", launch.PAPER, "--out", out, *[a for s in sets for a in ("--set", s)])
@@ -86,14 +88,14 @@ def test_a_run_that_compiles_says_so_and_gives_no_rate_for_its_first_step(first_
 
 
 def test_compiled_equations_are_reused_by_the_next_process(first_job):
-    """A later process finds density and momentum in the cache instead of adding new entries."""
+    """A later process finds the evaluation's stages in the cache instead of adding new entries."""
     cache, first = first_job
     assert first.returncode == 0, first
-    before = {f: data_files(cache, f) for f in ("density.density_serial", "momentum.momentum_serial")}
+    before = {f: data_files(cache, f) for f in FUNCTIONS}
     assert all(before.values()), before
     r = launch.run([launch.PYTHON, FEW_STEPS], timeout=120, NUMBA_CACHE_DIR=cache)
     assert r.returncode == 0, r
-    after = {f: data_files(cache, f) for f in ("density.density_serial", "momentum.momentum_serial")}
+    after = {f: data_files(cache, f) for f in FUNCTIONS}
     assert after == before, "every process adds a new cache entry (the cache never hits)"
 
 

@@ -55,10 +55,27 @@ def _libmpi_path():
     return None
 
 
-def available():
-    """(True, "") where compiled code can call MPI here; else (False, why) and the caller uses mpi4py.
+def load():
+    """Load the libmpi that mpi4py mapped into LLVM's symbol table (once): "" where it is there, else why not.
+    Every MPI has MPI_Wtime, the compiled stages' clock (:func:`wtime`); the handle-taking bindings need
+    :func:`available` besides."""
+    if "loaded" not in _STATE:
+        from mpi4py import MPI  # noqa: F401 - maps libmpi
+        path, why = _libmpi_path(), ""
+        if path is None:
+            why = "no libmpi mapped in this process"
+        else:
+            try:
+                import llvmlite.binding as llvm
+                llvm.load_library_permanently(path)
+            except Exception as e:  # noqa: BLE001 - any failure means: use mpi4py
+                why = f"cannot load {path} into LLVM: {e}"
+        _STATE["loaded"] = why
+    return _STATE["loaded"]
 
-    Loads the library into LLVM's symbol table once."""
+
+def available():
+    """(True, "") where compiled code can call MPI here; else (False, why) and the caller uses mpi4py."""
     if "ok" in _STATE:
         return _STATE["ok"], _STATE["why"]
     ok, why = False, ""
@@ -66,19 +83,11 @@ def available():
         why = f"{ENV}=0"
     else:
         from mpi4py import MPI
-        path = _libmpi_path()
         sizes = [MPI._sizeof(t) for t in (MPI.Comm, MPI.Datatype, MPI.Op, MPI.Request)]
-        if path is None:
-            why = "no libmpi mapped in this process"
-        elif any(s != 8 for s in sizes):
+        why = load()
+        if not why and any(s != 8 for s in sizes):
             why = f"handle sizes {sizes} (the bindings know pointer-sized handles, Open MPI's)"
-        else:
-            try:
-                import llvmlite.binding as llvm
-                llvm.load_library_permanently(path)
-                ok = True
-            except Exception as e:  # noqa: BLE001 - any failure means: use mpi4py
-                why = f"cannot load {path} into LLVM: {e}"
+        ok = not why
     _STATE.update(ok=ok, why=why)
     return ok, why
 

@@ -1,10 +1,9 @@
 """The steps between events in compiled code: integrate, sync, Eq. (3), ghosts' rho, Eq. (5), again and again.
 
-:func:`run_block` advances the state by whole steps, each exactly as the
-Python path of :class:`parsph.simulation.solver.Simulation` takes it (the same
-numba stages in the same order, the messages through
-:mod:`parsph.parallel.native_mpi` instead of mpi4py), and returns to Python
-when something happens there:
+:func:`run_block` advances the state by whole steps of the stages of
+:mod:`.stages`, which the Python path of :class:`parsph.simulation.solver.Simulation`
+takes too (the messages through :mod:`parsph.parallel.native_mpi` instead of
+mpi4py), and returns to Python when something happens there:
 
 - ``EVENT``: the step ``stop_step`` was reached, or (auto dt) the step landed
   on the target time: an output, a check, the end, a progress line or a
@@ -39,14 +38,15 @@ from numba import njit, uintp
 
 from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
-from parsph.sph import density, momentum
 from parsph.sph import integrators, walls
 from parsph.sph.cells import patch_spread
 from parsph.sph.particles import drag_maximum, state_maxima
 from parsph.physics.limits import landing, state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
+from . import stages
+from .stages import (BAD, BAD_MID, CHECK, CHECKS, DENSITY, DONE, EVENT, FORCES, GAS, INTEGRATE, MPI_ERROR,  # noqa: F401
+                     NEED_LIMIT, REBUILD, REBUILD_MID, START, STOP, SYNC, TIMER_PHASES)
 
-EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK, GAS = range(10)
 # where a block resumes after GAS (control's resume): nowhere (a fresh start), after a step's last evaluation,
 # after the midpoint's middle evaluation, after the evaluation of the state as it is (eval_first)
 FRESH, AFTER_END, AFTER_MID, AFTER_FIRST = range(4)
@@ -66,9 +66,6 @@ CONTROL = np.dtype([
     ("reflected", np.int64),    # grains this rank's walls.reflect put back on a plate
     ("resume", np.int64),       # where the block resumes after GAS (FRESH: it does not)
 ])
-# timers (float64 seconds), in the solver's phase names
-TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
-SYNC, DENSITY, HALO, FORCES, INTEGRATE, CHECKS = range(6)
 # scratch (float64): the all-reduces' buffers of run_block, by name
 FLAGS, FLAGS_ALL = slice(0, 3), slice(3, 6)        # a sync's (bad, stop, rebuild), and their agreed values
 MAXIMA, MAXIMA_ALL = slice(6, 10), slice(10, 14)   # the auto rule's (|v|, theta, |a|, drag C) maxima
@@ -136,68 +133,14 @@ def _sync(plan, parts, motion, cells, local, box, work, control, flags, flags_al
     return err
 
 
-@njit(cache=True)
-def _density(lst, parts, c, sw, gather, threaded):
-    """Eq. (3) into the list's sums (``lst.rho_sum``, the pairs' (dW/dr)/r): the particles' fields are
-    not touched, so that the pass can run while the sync's all-reduce is in flight."""
-    if len(threaded):
-        density.density_threaded(lst, parts, c, sw, gather)
-    else:
-        density.density_serial(lst, parts, c, sw)
-
-
-@njit(cache=True)
-def _after_density(plan, lst, parts, c, sw, gather, threaded, mirror, gas, forces_only, timers):
-    """After Eq. (3): the owned particles' rho and factors, the ghosts' rho (one round), their factors, then
-    Eq. (5) and the body force, or GAS before them (``gas``: the solved gas's stage reads the factors);
-    ``forces_only`` (np.bool_, not a literal: one version for both): Eq. (5) alone, where a block resumes after
-    GAS. Returns -1 when the rates are computed, GAS, or MPI_ERROR. ``mirror`` (``sw.mirror``) as an argument
-    of its own: numba prunes its branches before typing, so a block without such walls compiles none of their
-    passes (a field of ``sw`` would type them). One function for both parts: each of them a function of its
-    own cost a tenth more compiling a block."""
-    if not forces_only:
-        t0 = wtime()
-        n, n_own = lst.n, parts.n_own
-        start = np.int64(0)  # not the literal 0: one version of the passes for both calls
-        if len(mirror):
-            walls.renormalise(lst, parts, c, sw)
-        if len(threaded):
-            momentum.particle_factors(lst, parts, c, sw, start, n_own)
-        else:
-            momentum.particle_factors_serial(lst, parts, c, sw, start, n_own)
-        t1 = wtime()
-        err = native_halo.refresh(plan, parts.rho, n_own)
-        t2 = wtime()
-        if len(threaded):
-            momentum.particle_factors(lst, parts, c, sw, n_own, n)
-        else:
-            momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
-        timers[DENSITY] += t1 - t0
-        timers[HALO] += t2 - t1
-        timers[FORCES] += wtime() - t2
-        if err:
-            return MPI_ERROR
-        if gas:
-            return GAS
-    t0 = wtime()
-    if len(threaded):
-        momentum.momentum_threaded(lst, parts, c, sw, gather)
-    else:
-        momentum.momentum_serial(lst, parts, c, sw)
-    if len(mirror):
-        walls.forces(lst, parts, c, sw)
-    timers[FORCES] += wtime() - t0
-    return -1
-
-
 @njit(cache=True, inline="always")
 def evaluate(plan, lst, parts, c, sw, gather, threaded, gas, timers):
-    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (as Rates.__call__); -1, GAS or
-    MPI_ERROR (:func:`_after_density`)."""
+    """Eq. (3), the ghosts' rho, Eq. (5): the rates of the owned particles (:mod:`.stages`); DONE, GAS or
+    MPI_ERROR (:func:`.stages.after_density`)."""
     t0 = wtime()
-    _density(lst, parts, c, sw, gather, threaded)
+    stages.density(lst, parts, c, sw, gather, threaded)
     timers[DENSITY] += wtime() - t0
-    return _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.bool_(False), timers)
+    return stages.after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.int64(START), timers)
 
 
 @njit(cache=True)
@@ -243,7 +186,7 @@ def _checks_fail(plan, parts, motion, lim, report, fastest, sums, sums_all):
 @njit(cache=True, inline="always")
 def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, threaded, gas, control, flags,
                    flags_all, bad, skin, timers, req, stat):
-    """A sync, then the rates unless the agreed flags say otherwise: -1 when the rates are computed, else
+    """A sync, then the rates unless the agreed flags say otherwise: DONE when the rates are computed, else
     the block's code (BAD, REBUILD; :func:`run_block` makes them BAD_MID, REBUILD_MID at the midpoint
     integrator's middle evaluation; GAS before Eq. (5) with the solved gas). A stop agreed here is kept in
     ``control``'s stop_out.
@@ -254,7 +197,7 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
     if _sync(plan, parts, motion, cells, local, box, work, control, flags, flags_all, bad, skin, timers, req):
         return MPI_ERROR
     t0 = wtime()
-    _density(lst, parts, c, sw, gather, threaded)
+    stages.density(lst, parts, c, sw, gather, threaded)
     t1 = wtime()
     err = wait(req, stat)
     timers[DENSITY] += t1 - t0
@@ -267,7 +210,7 @@ def _sync_evaluate(plan, lst, parts, motion, cells, local, box, work, c, sw, gat
         control[0].stop_out = flags_all[1]
     if flags_all[2] != 0.0:
         return REBUILD
-    return _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.bool_(False), timers)
+    return stages.after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.int64(START), timers)
 
 
 @njit(cache=True)
@@ -298,7 +241,7 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     ctl = control[0]
     phase = _STEP
     if ctl.resume != FRESH:  # the gas stage of the evaluation the block returned in is done: Eq. (5)
-        _after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.bool_(True), timers)
+        stages.after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.int64(FORCES), timers)
         phase = _STEP if ctl.resume == AFTER_FIRST else ctl.resume
         ctl.resume = FRESH
     elif ctl.eval_first:  # the rates of the state as it is (a list was just built)

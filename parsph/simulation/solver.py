@@ -35,6 +35,7 @@ from parsph.sph.particles import GRAIN, drag_maximum, state_maxima
 from parsph.sph.rates import Rates
 from . import block, start
 from .compiled_steps import CompiledSteps, native_route
+from .evaluation import Evaluation
 from .frames import Frames
 from .guards import bounds_of, run_checks
 from .integrator import Integrator
@@ -83,6 +84,7 @@ class Simulation:
         self.keeper.restore = restore
         self.neighbours = self.keeper.neighbours
         self.rates = Rates(*start.pass_groups(cfg, self.kernel, start.the_one_mass(self.collect, ps)))
+        self.evaluation = Evaluation(self.rates, self.ring, clock, None if self.gas is None else self._gas_stage)
         self.n_total = self.collect.total(ps.n_own)
         fluid = ps.kind[:ps.n_own] == GRAIN
         self.bounds = bounds_of(cfg, float(self.collect.sum(np.array([ps.mass[:ps.n_own][fluid].sum()]))[0]))
@@ -113,7 +115,7 @@ class Simulation:
     def compute_rates(self):
         """Density, theta and accelerations of the owned particles at the current state."""
         self._sync()
-        self.rates(self.ps, self.ring, self.timers, self.clock, None if self.gas is None else self._gas_stage)
+        self.evaluation(self.ps, self.timers)
         self._fresh = True
 
     def _gas_stage(self, ps):

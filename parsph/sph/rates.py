@@ -1,27 +1,18 @@
-"""The right-hand side on one rank: the passes of Eq. (3) and Eq. (5) over a neighbour list.
+"""The passes' data on one rank: the list of a build, its scratch, the run's numbers and terms.
 
 :meth:`Rates.attach` takes the list of a build (:class:`parsph.sph.neighbour_list.NeighbourList`)
-and sizes the passes' scratch to it; calling the object evaluates density, theta and accelerations.
-Between the two passes the densities of the ghosts come from their owners through the ``halo``
-object it is handed (:class:`parsph.parallel.slab_ring.SlabRing`); this module knows nothing of MPI.
-In LAMMPS's terms, the Pair.
+and sizes the passes' scratch to it; the stages of :mod:`parsph.simulation.stages` evaluate density,
+theta and accelerations over it (both routes, the compiled block's and the Python path's). This
+module knows nothing of MPI. In LAMMPS's terms, the Pair's data.
 """
-import time
-
 import numpy as np
 
-from . import density, momentum, pass_data, walls
-from .dispatch import Calls, threaded
-
-PASSES = {"density_serial": density.density_serial, "density_threaded": density.density_threaded,
-          "particle_factors": momentum.particle_factors, "particle_factors_serial": momentum.particle_factors_serial,
-          "momentum_serial": momentum.momentum_serial, "momentum_threaded": momentum.momentum_threaded,
-          "renormalise": walls.renormalise, "forces": walls.forces}
+from . import pass_data
 
 
 class Rates:
-    """Evaluates rho, theta and the accelerations of the owned particles of a ``Particles`` set, with the
-    run's numbers ``consts`` (:class:`pass_data.Constants`) and terms ``switches`` (:class:`pass_data.Switches`)."""
+    """What the passes over the particles of a ``Particles`` set read: the list, its scratch, the run's numbers
+    ``consts`` (:class:`pass_data.Constants`) and terms ``switches`` (:class:`pass_data.Switches`)."""
 
     def __init__(self, consts, switches):
         self.consts = consts
@@ -35,7 +26,6 @@ class Rates:
         self.neighbours = None
         self._gather = None   # pass_data.Gather, made when threads are in use
         self._cap = 0
-        self._calls = Calls(PASSES)
 
     def attach(self, nlist):
         """The passes' view of a new build's list, with scratch per particle and per pair sized to it."""
@@ -59,7 +49,6 @@ class Rates:
                                        self.fp, self.rho_sum, self.fields, self.cstart, self.cj, self.cf,
                                        wall_pairs, self.wall_share)
         self._gather = None
-        self._calls.forget()
 
     def gather_arrays(self):
         """The threaded passes' scratch of this build (made once per build)."""
@@ -68,45 +57,3 @@ class Rates:
             npairs = self.neighbours.npairs
             self._gather = pass_data.Gather(offset, entry, np.zeros(npairs), np.zeros(npairs), np.zeros(npairs))
         return self._gather
-
-    def __call__(self, ps, halo, timers=None, clock=time.perf_counter, between=None):
-        """Fill ps.rho, ps.theta and ps.acc of the owned particles; ``halo.refresh(ps, ps.rho)`` updates the copies.
-
-        Wall particles keep the rho they hold; mirrored walls (:mod:`.walls`) act through their passes. ``timers`` (a dict) gets the
-        seconds of "density", "halo" and "forces" added, read from ``clock``.
-        ``between(ps)``: a stage between Eq. (3) and Eq. (5), the particles' theta known (the solved gas:
-        :class:`parsph.simulation.gas_stage.GasStage`); its seconds are its own to count.
-        """
-        lst, c, sw, run = self.list, self.consts, self.switches, self._calls
-        parts = pass_data.particle_arrays(ps)
-        n, n_own = lst.n, ps.n_own
-        gather = self.gather_arrays() if threaded() else None
-        t0 = clock()
-        # one thread: the serial factors, as the compiled block takes them (no parallel=True code compiled)
-        factors = "particle_factors" if gather is not None else "particle_factors_serial"
-        if gather is not None:
-            run("density_threaded", lst, parts, c, sw, gather)
-        else:
-            run("density_serial", lst, parts, c, sw)
-        if len(sw.mirror):
-            run("renormalise", lst, parts, c, sw)
-        run(factors, lst, parts, c, sw, 0, n_own)
-        t1 = clock()
-        halo.refresh(ps, ps.rho)
-        t2 = clock()
-        run(factors, lst, parts, c, sw, n_own, n)
-        if between is not None:
-            t_b = clock()
-            between(ps)
-            t2 += clock() - t_b
-        if gather is not None:
-            run("momentum_threaded", lst, parts, c, sw, gather)
-        else:
-            run("momentum_serial", lst, parts, c, sw)
-        if len(sw.mirror):
-            run("forces", lst, parts, c, sw)
-        t3 = clock()
-        if timers is not None:
-            timers["density"] += t1 - t0
-            timers["halo"] += t2 - t1
-            timers["forces"] += t3 - t2
