@@ -4,10 +4,10 @@
 
 With nothing to loop over, a call costs what numba's dispatcher does before
 and after the loop: typing the arguments, finding the compiled version,
-boxing the result. Each pass gets the arguments :class:`parsph.sph.rates.Rates`
-gives it, from a small Couette case, with n = 0; it is called through its
-dispatcher and through the compiled version (:func:`parsph.sph.dispatch.compiled`,
-as ``Rates`` calls it); the median over ``--rounds`` rounds of ``--calls``
+boxing the result. Each pass gets its arguments from the passes' data
+(:class:`parsph.sph.rates.Rates`) of a small Couette case, with n = 0; it is called
+through its dispatcher and through the compiled version (:func:`parsph.sph.dispatch.compiled`,
+as the Python path calls the evaluation's stages); the median over ``--rounds`` rounds of ``--calls``
 calls each, in process CPU time. Then the time of whole steps of the
 Couette case at N_x = 10 (160 particles, fixed dt = 1e-5 s, after 300
 steps), where the fixed cost of a step weighs most, in compiled blocks and on
