@@ -68,7 +68,7 @@ def load():
             try:
                 import llvmlite.binding as llvm
                 llvm.load_library_permanently(path)
-            except Exception as e:  # noqa: BLE001 - any failure means: use mpi4py
+            except Exception as e:  # noqa: BLE001 - reported: the bindings are then not used
                 why = f"cannot load {path} into LLVM: {e}"
         _STATE["loaded"] = why
     return _STATE["loaded"]

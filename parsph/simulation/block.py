@@ -44,8 +44,9 @@ from parsph.sph.particles import drag_maximum, state_maxima
 from parsph.physics.limits import landing, state_limit
 from .guards import N_FASTEST, N_REPORT, check_report
 from . import stages
-from .stages import (BAD, BAD_MID, CHECK, CHECKS, DENSITY, DONE, EVENT, FORCES, GAS, INTEGRATE, MPI_ERROR,  # noqa: F401
-                     NEED_LIMIT, REBUILD, REBUILD_MID, START, STOP, SYNC, TIMER_PHASES)
+# the codes of the module doc (the driver reads them here) and the phase timers
+from .stages import (BAD, BAD_MID, CHECK, CHECKS, DENSITY, DONE, EVENT, FORCES_ONLY, GAS,  # noqa: F401
+                     INTEGRATE, MPI_ERROR, NEED_LIMIT, REBUILD, REBUILD_MID, START, STOP, SYNC, TIMER_PHASES)
 
 # where a block resumes after GAS (control's resume): nowhere (a fresh start), after a step's last evaluation,
 # after the midpoint's middle evaluation, after the evaluation of the state as it is (eval_first)
@@ -241,7 +242,8 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
     ctl = control[0]
     phase = _STEP
     if ctl.resume != FRESH:  # the gas stage of the evaluation the block returned in is done: Eq. (5)
-        stages.after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.int64(FORCES), timers)
+        stages.after_density(plan, lst, parts, c, sw, gather, threaded, sw.mirror, gas, np.int64(FORCES_ONLY),
+                             timers)
         phase = _STEP if ctl.resume == AFTER_FIRST else ctl.resume
         ctl.resume = FRESH
     elif ctl.eval_first:  # the rates of the state as it is (a list was just built)

@@ -37,8 +37,6 @@ class CompiledSteps:
         self._args = None
         self._fn = None
         self._versions = {}
-        self._no_gather = pass_data.Gather(np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(0), np.zeros(0),
-                                           np.zeros(0))
 
     def forget(self):
         """A list was built: the next block's arguments are its arrays."""
@@ -55,7 +53,7 @@ class CompiledSteps:
             self._modes = modes
             self._args = (self.ring.plan(ps.dim), R.list, pass_data.particle_arrays(ps), Motion(*integ.motion(ps)),
                           N.cells, N.local, N.box, N.work, R.consts, R.switches,
-                          R.gather_arrays() if threaded else self._no_gather, self.rule, self.bounds, *modes,
+                          R.gather_for(threaded), self.rule, self.bounds, *modes,
                           self.control, self._timers, self.scratch, self._req, self._stat)
             self._fn = None
         if self._fn is None:

@@ -23,23 +23,23 @@ class Evaluation:
         """``ring``: the slab ring (its plan, and its mpi4py rounds where the plan holds no MPI handles);
         ``clock``: the seconds of Eq. (3) and of an mpi4py round (the other stages count MPI_Wtime's);
         ``gas(ps)``: the solved gas's stage between Eq. (3) and Eq. (5) (None: no solved gas)."""
-        native_mpi.load()  # the stages' clock, MPI_Wtime, on any MPI
+        why = native_mpi.load()  # the stages' clock, MPI_Wtime, on any MPI
+        if why:
+            raise RuntimeError(f"the compiled stages need MPI_Wtime from libmpi: {why}")
         self.rates, self.ring, self.clock, self.gas = rates, ring, clock, gas
         self.timers = np.zeros(len(stages.TIMER_PHASES))
-        self._no_gather = pass_data.Gather(np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(0), np.zeros(0),
-                                           np.zeros(0))
         self._calls = dispatch.Calls(FUNCTIONS)
-        self._list = None
+
+    def forget(self):
+        """A list was built: the stages' versions are looked up again for its arrays."""
+        self._calls.forget()
 
     def __call__(self, ps, timers):
         """Fill ps.rho, ps.theta and ps.acc of the owned particles; the stages' seconds into ``timers`` (a
         dict of the solver's phases; the gas stage counts its own)."""
         R, run = self.rates, self._calls
-        if R.list is not self._list:  # a new build: new arrays
-            run.forget()
-            self._list = R.list
         threaded = dispatch.threaded()
-        gather = R.gather_arrays() if threaded else self._no_gather
+        gather = R.gather_for(threaded)
         lst, parts, c, sw = R.list, pass_data.particle_arrays(ps), R.consts, R.switches
         thr, t = pass_data.switch(threaded), self.timers
         t[:] = 0.0
@@ -58,9 +58,9 @@ class Evaluation:
         if code == stages.GAS:
             self.gas(ps)
             code = run("after_density", plan, lst, parts, c, sw, gather, thr, sw.mirror, True,
-                       np.int64(stages.FORCES), t)
+                       np.int64(stages.FORCES_ONLY), t)
         if code != stages.DONE:
             raise RuntimeError("an MPI call of the compiled evaluation failed")
         timers["density"] += float(t[stages.DENSITY])
         timers["halo"] += float(t[stages.HALO_T])
-        timers["forces"] += float(t[stages.FORCES_T])
+        timers["forces"] += float(t[stages.FORCES])

@@ -156,6 +156,7 @@ class Simulation:
         t0 = self.clock()
         self.keeper.build(self.ps, restore)
         self.rates.attach(self.neighbours)
+        self.evaluation.forget()
         self.blocks.forget()
         self.timers["rebuild"] += self.clock() - t0
 

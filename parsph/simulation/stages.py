@@ -8,7 +8,7 @@ serial/threaded choice is made here alone (``threaded``: a ``pass_data.switch`` 
 2. :func:`after_density` from ``START``: [walls' renormalisation], the owned particles' rho and factors, the
    ghosts' rho from their owners (one round; where compiled code cannot call MPI it returns ``HALO`` and the
    caller sends the round through mpi4py, then calls it again from ``AFTER_HALO``), the ghosts' factors;
-   with the solved gas it returns ``GAS`` (the caller runs the gas stage, then calls it from ``FORCES``);
+   with the solved gas it returns ``GAS`` (the caller runs the gas stage, then calls it from ``FORCES_ONLY``);
    then Eq. (5) and the body force, [the walls' forces].
 
 Each function takes its modes as arguments of their own (``threaded``, ``mirror``: empty tuple or ``(1,)``):
@@ -31,10 +31,10 @@ from parsph.sph import momentum, walls
 # the ghosts' rho from mpi4py
 EVENT, REBUILD, REBUILD_MID, BAD, BAD_MID, STOP, NEED_LIMIT, MPI_ERROR, CHECK, GAS, HALO = range(11)
 DONE = -1  # the rates are computed
-START, AFTER_HALO, FORCES = range(3)  # where after_density starts
+START, AFTER_HALO, FORCES_ONLY = range(3)  # where after_density starts
 # the phase timers (float64 seconds), in the solver's phase names
 TIMER_PHASES = ("sync", "density", "halo", "forces", "integrate", "checks")
-SYNC, DENSITY, HALO_T, FORCES_T, INTEGRATE, CHECKS = range(6)
+SYNC, DENSITY, HALO_T, FORCES, INTEGRATE, CHECKS = range(6)
 
 
 @njit(cache=True)
@@ -74,13 +74,13 @@ def after_density(plan, lst, parts, c, sw, gather, threaded, mirror, gas, start,
         timers[HALO_T] += wtime() - t1
         if err:
             return MPI_ERROR
-    if start != FORCES:
+    if start != FORCES_ONLY:
         t2 = wtime()
         if len(threaded):
             momentum.particle_factors(lst, parts, c, sw, n_own, n)
         else:
             momentum.particle_factors_serial(lst, parts, c, sw, n_own, n)
-        timers[FORCES_T] += wtime() - t2
+        timers[FORCES] += wtime() - t2
         if gas:
             return GAS
     t0 = wtime()
@@ -90,5 +90,5 @@ def after_density(plan, lst, parts, c, sw, gather, threaded, mirror, gas, start,
         momentum.momentum_serial(lst, parts, c, sw)
     if len(mirror):
         walls.forces(lst, parts, c, sw)
-    timers[FORCES_T] += wtime() - t0
+    timers[FORCES] += wtime() - t0
     return DONE

@@ -26,6 +26,8 @@ class Rates:
         self.neighbours = None
         self._gather = None   # pass_data.Gather, made when threads are in use
         self._cap = 0
+        self._no_gather = pass_data.Gather(np.zeros(1, np.int64), np.zeros(1, np.int64), np.zeros(0), np.zeros(0),
+                                           np.zeros(0))
 
     def attach(self, nlist):
         """The passes' view of a new build's list, with scratch per particle and per pair sized to it."""
@@ -57,3 +59,8 @@ class Rates:
             npairs = self.neighbours.npairs
             self._gather = pass_data.Gather(offset, entry, np.zeros(npairs), np.zeros(npairs), np.zeros(npairs))
         return self._gather
+
+    def gather_for(self, threaded):
+        """What the passes take as their gather: this build's (:meth:`gather_arrays`) with threads, else an empty
+        one of the same types (the serial passes do not read it)."""
+        return self.gather_arrays() if threaded else self._no_gather
