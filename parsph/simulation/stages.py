@@ -17,7 +17,7 @@ numba prunes the branch on an argument's length before typing, so a one-thread v
 
 The integration's halves stay where they were, one call each in the block and in
 :class:`.integrator.Integrator`: as calls of a stage function of their own the block's step took 8% longer
-(docs/performance.md, "The step in compiled code").
+(docs/performance.md, "What was tried and lost").
 """
 import numpy as np
 from numba import njit
