@@ -91,6 +91,13 @@ def test_particles_one_png_per_snapshot_coloured_by_the_field(tmp_path, capsys):
         p.unlink()
     assert main(["plot", str(tmp_path), "--particles", "--field", "theta", "--times", "0.003"]) == 0
     assert sorted(p.name for p in tmp_path.glob("*.png")) == ["couette_paper_theta_0002.png"]
+    (tmp_path / "couette_paper_theta_0002.png").unlink()
+    assert main(["plot", str(tmp_path), "--field", "vx", "--times", "0.001"]) == 0  # no grid: the particles'
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == ["couette_paper_vx_0000.png"]
+    capsys.readouterr()
+    assert main(["plot", str(tmp_path), "--animate", str(tmp_path / "a.gif")]) == 2  # no grid to animate
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no output holds the gas's grid" in err[0], err
     capsys.readouterr()
     assert main(["plot", str(tmp_path), "--particles", "--times", "0.002"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

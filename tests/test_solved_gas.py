@@ -588,7 +588,16 @@ def test_plot_grid_draws_each_output_and_animates_them(tmp_path):
     assert Image.open(gif).n_frames == 3
     assert main(["plot", str(tmp_path), "--grid", "--field", "vy"]) == 2
     assert main(["plot", str(tmp_path), "--grid", "--field", "p", "--animate", str(tmp_path / "x.avi")]) == 2
-    assert not list(tmp_path.glob("*_grid_p_*.png"))
+    assert main(["plot", str(tmp_path), "--particles", "--animate", str(tmp_path / "p.gif")]) == 2
+    assert not list(tmp_path.glob("*_grid_p_*.png")) and not (tmp_path / "p.gif").exists()
+    # --field or --animate alone: the grid's pictures, as the outputs hold a grid
+    for png in tmp_path.glob("*.png"):
+        png.unlink()
+    gif.unlink()
+    assert main(["plot", str(tmp_path), "--field", "p", "--times", "0.004"]) == 0
+    assert [p.name for p in tmp_path.glob("*.png")] == ["bed_grid_p_0002.png"]
+    assert main(["plot", str(tmp_path), "--animate", str(gif)]) == 0
+    assert Image.open(gif).n_frames == 3 and len(list(tmp_path.glob("bed_grid_theta_*.png"))) == 3
 
 
 @pytest.mark.parametrize("extra", [["gas.solve_every=3"], ['gas.drag="wen_yu"']])

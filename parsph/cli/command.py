@@ -5,6 +5,7 @@
     parsph converge CONFIG [--levels 3] [--ratio 2] [--target ERR] [--out DIR] [--family NAME ...] [--dt-scaling dx2|limit]
     parsph plot OUTPUT [--png FILE] [--particles [--field vy|vx|theta] [--times T ...]]
                        [--grid [--field theta|p] [--times T ...] [--animate FILE.gif]]
+                       [--field F] [--times T ...] [--animate FILE.gif]   (the grid's where there is one)
 
 The commands live in :mod:`parsph.cli.run` (run), :mod:`parsph.cli.converge`
 (converge) and :mod:`parsph.cli.report` (check, plot); the exit codes in
@@ -81,11 +82,14 @@ def build_parser():
                     help="instead: the solved gas's grid of each output that holds one (theta or p', upright, mm), "
                          "as DIR/<name>_grid_<field>_NNNN.png")
     pl.add_argument("--animate", metavar="FILE",
-                    help="with --grid: also an animation over the outputs (.gif, or .mp4 where ffmpeg is there)")
+                    help="the grid's pictures (--grid implied) and an animation over the outputs (.gif, or .mp4 "
+                         "where ffmpeg is there)")
     pl.add_argument("--field", choices=("vy", "vx", "theta", "p"), default=None,
-                    help="colour of --particles (vy, vx, theta; default vy) or --grid (theta, p; default theta)")
+                    help="colour of --particles (vy, vx, theta; default vy) or --grid (theta, p; default theta); "
+                         "alone, the grid's pictures where the outputs hold one, else the particles'")
     pl.add_argument("--times", type=float, nargs="+", metavar="T",
-                    help="--particles only at these output times [s] (default: every output with particles)")
+                    help="the pictures only at these output times [s] (default: every output that has what they "
+                         "draw); alone, as --field alone")
     return p
 
 

@@ -17,6 +17,17 @@ from .particles_plot import at_times, colour_limits, png_name
 GRID_FIELDS = {"theta": "theta (grains' volume fraction) [1]", "p": "p' (gas pressure less hydrostatic) [Pa]"}
 
 
+def holds_grid(path):
+    """Whether an output of ``path`` (a directory or one file) holds the gas's grid."""
+    import h5py
+    from parsph.output import output_files
+    for fn in output_files(path):
+        with h5py.File(fn, "r") as f:
+            if "grid" in f and "theta" in f["grid"]:
+                return True
+    return False
+
+
 def grid_outputs(path, times=None):
     """(time, file, {field: array}, cell (h_x, h_y[, h_z]), scene) of the outputs with a grid, in time order."""
     import h5py

@@ -154,18 +154,33 @@ def profile_png(first):
     return os.path.join(os.path.dirname(first), stem + "_profile.png")
 
 
+def picture_kind(args):
+    """"grid", "particles" or None (the profile figure) for ``parsph plot``'s options: as asked, or, where only
+    --field, --times or --animate asks for pictures, the grid's where the outputs hold one (an animation, or
+    p', always the grid's), else the particles'."""
+    grid, particles = getattr(args, "grid", False), getattr(args, "particles", False)
+    field, animate = getattr(args, "field", None), getattr(args, "animate", None)
+    if grid and particles:
+        raise UsageError("--grid and --particles: one picture kind a call")
+    if particles and animate:
+        raise UsageError("--animate: the animation is of the gas grid's pictures (--grid), not the particles'")
+    if grid or particles:
+        return "grid" if grid else "particles"
+    if not (field or animate or getattr(args, "times", None)):
+        return None
+    from .grid_plot import holds_grid
+    return "grid" if animate or field == "p" or _read(args.output, holds_grid) else "particles"
+
+
 def cmd_plot(args):
     field = getattr(args, "field", None)
-    if getattr(args, "grid", False):
-        if getattr(args, "particles", False):
-            raise UsageError("--grid and --particles: one picture kind a call")
+    kind = picture_kind(args)
+    if kind == "grid":
         from .grid_plot import plot_grid
         for out in _read(args.output, lambda p: plot_grid(p, field or "theta", args.times, args.animate)):
             print(f"wrote {out}")
         return 0
-    if getattr(args, "animate", None):
-        raise UsageError("--animate goes with --grid")
-    if getattr(args, "particles", False):
+    if kind == "particles":
         from .particles_plot import plot_particles
         if field == "p":
             raise UsageError("--field p: the particles have vy, vx, theta (p' is the grid's: --grid)")
