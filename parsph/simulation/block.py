@@ -38,7 +38,8 @@ from numba import njit, uintp
 
 from parsph.parallel import native_halo
 from parsph.parallel.native_mpi import OP_MAX, OP_SUM, allreduce, iallreduce, wait, wtime
-from parsph.sph import integrators, walls
+from parsph.sph import walls
+from parsph.sph.integrators import integrate_first, integrate_second
 from parsph.sph.cells import patch_spread
 from parsph.sph.particles import drag_maximum, state_maxima
 from parsph.physics.limits import landing, state_limit
@@ -275,13 +276,9 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
             ctl.land = land
             # -- integrate (midpoint: predict, evaluate at the midpoint, correct)
             t0 = wtime()
+            bad = integrate_first(threaded, midpoint, pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
+                                  motion.jump, rule.h, drag, implicit)
             if len(midpoint):
-                if len(threaded):
-                    bad = integrators.midpoint_predict(pos, vel, acc, kind, n_own, dt, motion.pos0, motion.vel0,
-                                                       motion.jump, rule.h, drag, implicit)
-                else:
-                    bad = integrators.midpoint_predict_serial(pos, vel, acc, kind, n_own, dt, motion.pos0,
-                                                              motion.vel0, motion.jump, rule.h, drag, implicit)
                 if len(sw.mirror):
                     ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)
                 timers[INTEGRATE] += wtime() - t0
@@ -293,19 +290,10 @@ def run_block(plan, lst, parts, motion, cells, local, box, work, c, sw, gather, 
                 if code >= 0:
                     return BAD_MID if code == BAD else REBUILD_MID if code == REBUILD else code
                 phase = AFTER_MID
-            elif len(threaded):
-                bad = integrators.step_paper(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag, implicit)
-            else:
-                bad = integrators.step_paper_serial(pos, vel, acc, kind, n_own, dt, motion.jump, rule.h, drag,
-                                                    implicit)
         if phase == AFTER_MID:
             t0 = wtime()
-            if len(threaded):
-                bad = integrators.midpoint_correct(pos, vel, acc, kind, n_own, ctl.dt, motion.pos0, motion.vel0,
-                                                   motion.jump, rule.h, drag, implicit)
-            else:
-                bad = integrators.midpoint_correct_serial(pos, vel, acc, kind, n_own, ctl.dt, motion.pos0,
-                                                          motion.vel0, motion.jump, rule.h, drag, implicit)
+            bad = integrate_second(threaded, pos, vel, acc, kind, n_own, ctl.dt, motion.pos0, motion.vel0, motion.jump,
+                                   rule.h, drag, implicit)
         if phase != AFTER_END:
             if len(sw.mirror):
                 ctl.reflected += walls.reflect(pos, vel, kind, n_own, c.L, c.side, c.ring)

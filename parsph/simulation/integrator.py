@@ -32,18 +32,20 @@ class Integrator:
         anew each step, as the field is reallocated when the particles grow)."""
         return ps.drag_coef if self.drag else self.no_state
 
+    def steps(self):
+        """The integration's functions for this process's thread mode (:func:`integrators.steps_for`, which
+        the compiled block's calls resolve to as well): on one thread the serial loops."""
+        return integrators.steps_for(self.midpoint, dispatch.threaded())
+
     def first(self, ps, dt):
-        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles.
-        On one thread the serial loops, as the compiled block takes them (no parallel region to compile)."""
-        serial = not dispatch.threaded()
+        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles."""
+        first = self.steps().first
         if not self.midpoint:
-            step = integrators.step_paper_serial if serial else integrators.step_paper
-            bad = step(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
-                       self.implicit)
+            bad = first(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
+                        self.implicit)
         else:
-            predict = integrators.midpoint_predict_serial if serial else integrators.midpoint_predict
-            bad = predict(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
-                          self.drag_field(ps), self.implicit)
+            bad = first(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
+                        self.drag_field(ps), self.implicit)
         self._reflect(ps)
         return bad
 
@@ -53,9 +55,8 @@ class Integrator:
 
     def second(self, ps, dt):
         """The midpoint scheme's second half, from the rates at the midpoint."""
-        correct = integrators.midpoint_correct if dispatch.threaded() else integrators.midpoint_correct_serial
-        bad = correct(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
-                      self.drag_field(ps), self.implicit)
+        bad = self.steps().second(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
+                                  self.drag_field(ps), self.implicit)
         self._reflect(ps)
         return bad
 

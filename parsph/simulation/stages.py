@@ -15,9 +15,11 @@ Each function takes its modes as arguments of their own (``threaded``, ``mirror`
 numba prunes the branch on an argument's length before typing, so a one-thread version compiles no
 ``parallel=True`` loop and a scene without mirrored walls none of their passes.
 
-The integration's halves stay where they were, one call each in the block and in
-:class:`.integrator.Integrator`: as calls of a stage function of their own the block's step took 8% longer
-(docs/performance.md, "What was tried and lost").
+The integration's serial/threaded choice is :func:`parsph.sph.integrators.steps_for`'s alone: the
+:class:`.integrator.Integrator` calls the functions it returns, and the block's calls
+(:func:`parsph.sph.integrators.integrate_first`, ``integrate_second``) resolve to them as numba types the
+block, inlined (as calls of a stage function of their own the block's step took 8% longer:
+docs/performance.md, "What was tried and lost").
 """
 import numpy as np
 from numba import njit

@@ -30,8 +30,10 @@ pass. Particles are independent: the loops are threaded
 (prange), with the count as a reduction.
 """
 import math
+from typing import NamedTuple
 
 from numba import njit, prange, uintp
+from numba.extending import overload
 
 from .particles import GRAIN
 
@@ -205,3 +207,52 @@ def midpoint_correct_serial(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, li
     for i in range(n_own):
         bad += _correct_one(pos, vel, acc, kind, i, dt, pos0, vel0, jump, limit, drag, implicit)
     return bad
+
+
+class Steps(NamedTuple):
+    """The integration's two calls: ``first`` the paper's whole step or the midpoint's prediction, ``second``
+    the midpoint's correction."""
+    first: object
+    second: object
+
+
+def steps_for(midpoint, threaded):
+    """The integration's functions: threaded (prange) or serial, the one place that choice is made for the
+    integration (:func:`parsph.sph.dispatch.threaded` decides ``threaded``). The Python path calls what it
+    returns; compiled code calls :func:`integrate_first` and :func:`integrate_second`, which numba resolves to
+    the same functions as it types the caller, so that a serial block holds no parallel region."""
+    if threaded:
+        return Steps(midpoint_predict if midpoint else step_paper, midpoint_correct)
+    return Steps(midpoint_predict_serial if midpoint else step_paper_serial, midpoint_correct_serial)
+
+
+def integrate_first(threaded, midpoint, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+    """In compiled code (``threaded``, ``midpoint``: pass_data.switch values): :func:`steps_for`'s ``first``
+    (the paper's step takes no pos0, vel0). Returns the count of bad particles."""
+    raise NotImplementedError("integrate_first is called from compiled code")
+
+
+def integrate_second(threaded, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+    """In compiled code: :func:`steps_for`'s ``second``, the midpoint's correction."""
+    raise NotImplementedError("integrate_second is called from compiled code")
+
+
+@overload(integrate_first, inline="always")
+def _first(threaded, midpoint, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+    first = steps_for(len(midpoint) > 0, len(threaded) > 0).first
+    if len(midpoint):
+        def impl(threaded, midpoint, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+            return first(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit)
+    else:
+        def impl(threaded, midpoint, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+            return first(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit)
+    return impl
+
+
+@overload(integrate_second, inline="always")
+def _second(threaded, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+    second = steps_for(True, len(threaded) > 0).second
+
+    def impl(threaded, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
+        return second(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit)
+    return impl
