@@ -9,11 +9,12 @@ the band's order: place k of the band is the cell ``order[k]``. A use is two swe
     U^T y = b:  y_c = (b_c - sum_{r=c-w}^{c-1} U_rc y_r) / U_cc     (a dot product along column c)
     U x = y:    x_c = y_c / U_cc, then y_r -= U_rc x_c, r < c       (an axpy along column c, c from the top)
 
-one pass each (the second two columns at a time, each row's updates in the same order: 15% off a use of a
-bed's factor, as it reads and writes the rows above half as often), as fast as scipy's ``cho_solve_banded`` (LAPACK's dpbtrs: 0.11 against 0.13 ms on a bed's
-38 x 112 cells, half-width 76); the iteration's vector arithmetic in the same compiled loop is what was numpy's,
-which cost a 2-D bed's gas stage a third of its time (docs/performance.md, "The solved gas"). The dot products
-keep four partial sums in a fixed order: the same bits on every machine and rank.
+one pass each, as fast as scipy's ``cho_solve_banded`` (LAPACK's dpbtrs: 0.11 against 0.13 ms on a bed's
+38 x 112 cells, half-width 76), and the second two columns at a time, each row's two terms in the one-column
+order (15% off a use of that factor: it reads and writes the rows above half as often); the iteration's
+vector arithmetic in the same compiled loop is what was numpy's, which cost a 2-D bed's gas stage a third of
+its time (docs/performance.md, "The solved gas"). The dot products keep four partial sums in a fixed order:
+the same bits on every machine and rank.
 """
 import numpy as np
 from numba import njit, uintp

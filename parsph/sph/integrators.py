@@ -227,14 +227,19 @@ def steps_for(midpoint, threaded):
 
 
 def integrate_first(threaded, midpoint, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
-    """In compiled code (``threaded``, ``midpoint``: pass_data.switch values): :func:`steps_for`'s ``first``
-    (the paper's step takes no pos0, vel0). Returns the count of bad particles."""
-    raise NotImplementedError("integrate_first is called from compiled code")
+    """:func:`steps_for`'s ``first`` for the modes ``threaded``, ``midpoint`` (pass_data.switch values; the
+    paper's step takes no pos0, vel0); returns the count of bad particles. Compiled code calls the function
+    numba chose as it typed the caller (:func:`_first`); this body runs without the JIT."""
+    first = steps_for(len(midpoint) > 0, len(threaded) > 0).first
+    if len(midpoint):
+        return first(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit)
+    return first(pos, vel, acc, kind, n_own, dt, jump, limit, drag, implicit)
 
 
 def integrate_second(threaded, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
-    """In compiled code: :func:`steps_for`'s ``second``, the midpoint's correction."""
-    raise NotImplementedError("integrate_second is called from compiled code")
+    """:func:`steps_for`'s ``second``, the midpoint's correction (as :func:`integrate_first`)."""
+    return steps_for(True, len(threaded) > 0).second(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag,
+                                                      implicit)
 
 
 @overload(integrate_first, inline="always")
