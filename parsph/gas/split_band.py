@@ -27,8 +27,8 @@ class Local:
     def mine(self, block):
         return True
 
-    def share(self, block, array):
-        return array
+    def share_all(self, arrays):
+        return list(arrays)
 
     def agree_failed(self, failed):
         return failed
@@ -98,8 +98,8 @@ class SplitBand:
         take, at = self.sep_entries
         S = np.zeros((w, w))
         S[at] = data[take]
-        for b in range(BLOCKS):
-            S -= share.share(b, corners[b])
+        for corner in share.share_all(corners):
+            S -= corner
         self.S = sla.cho_factor(S, check_finite=False)
 
     def _corner(self, c, D):
@@ -120,16 +120,20 @@ class SplitBand:
             if share.mine(b):
                 y = sla.cho_solve_banded((self.factors[b], False), rhs[self.rows[b]], check_finite=False)
                 tip = self.D[b].T @ y[-w:]
-            tips.append(share.share(b, tip))
+            tips.append(tip)
+        tips = share.share_all(tips)
         g = rhs[self.sep] - tips[0] - tips[1]
         xs = sla.cho_solve(self.S, g, check_finite=False)
         x = np.empty(self.n)
         x[self.sep] = xs
+        parts = []
         for b in range(BLOCKS):
             part = np.zeros(self.rows[b].size)
             if share.mine(b):
                 r = rhs[self.rows[b]].copy()
                 r[-w:] -= self.D[b] @ xs
                 part = sla.cho_solve_banded((self.factors[b], False), r, check_finite=False)
-            x[self.rows[b]] = share.share(b, part)
+            parts.append(part)
+        for b, part in enumerate(share.share_all(parts)):
+            x[self.rows[b]] = part
         return x
