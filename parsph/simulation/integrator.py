@@ -12,6 +12,7 @@ class Integrator:
     def __init__(self, cfg, ps):
         self.h = float(cfg.h)
         self.midpoint = cfg.integrator == "midpoint"
+        self._midpoint = pass_data.switch(self.midpoint)
         self.position_fields = ("pos",)  # the fields a build wraps into the box
         if self.midpoint:
             ps.add_field("pos0")
@@ -32,20 +33,13 @@ class Integrator:
         anew each step, as the field is reallocated when the particles grow)."""
         return ps.drag_coef if self.drag else self.no_state
 
-    def steps(self):
-        """The integration's functions for this process's thread mode (:func:`integrators.steps_for`, which
-        the compiled block's calls resolve to as well): on one thread the serial loops."""
-        return integrators.steps_for(self.midpoint, dispatch.threaded())
-
     def first(self, ps, dt):
-        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles."""
-        first = self.steps().first
-        if not self.midpoint:
-            bad = first(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.jump, self.h, self.drag_field(ps),
-                        self.implicit)
-        else:
-            bad = first(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
-                        self.drag_field(ps), self.implicit)
+        """The paper's whole step, or the midpoint scheme's first half; returns the count of bad particles.
+        The functions :func:`integrators.steps_for` chooses for this process's thread mode, as the compiled
+        block's calls resolve to: on one thread the serial loops."""
+        pos0, vel0 = (ps.pos0, ps.vel0) if self.midpoint else (self.no_state, self.no_state)
+        bad = integrators.integrate_first(self._threaded(), self._midpoint, ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own,
+                                          dt, pos0, vel0, ps.jump, self.h, self.drag_field(ps), self.implicit)
         self._reflect(ps)
         return bad
 
@@ -55,10 +49,14 @@ class Integrator:
 
     def second(self, ps, dt):
         """The midpoint scheme's second half, from the rates at the midpoint."""
-        bad = self.steps().second(ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0, ps.vel0, ps.jump, self.h,
-                                  self.drag_field(ps), self.implicit)
+        bad = integrators.integrate_second(self._threaded(), ps.pos, ps.vel, ps.acc, ps.kind, ps.n_own, dt, ps.pos0,
+                                           ps.vel0, ps.jump, self.h, self.drag_field(ps), self.implicit)
         self._reflect(ps)
         return bad
+
+    @staticmethod
+    def _threaded():
+        return pass_data.switch(dispatch.threaded())
 
     def motion(self, ps):
         """The particle state the compiled block integrates besides ParticleArrays (block.Motion's fields)."""

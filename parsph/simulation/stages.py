@@ -16,10 +16,10 @@ numba prunes the branch on an argument's length before typing, so a one-thread v
 ``parallel=True`` loop and a scene without mirrored walls none of their passes.
 
 The integration's serial/threaded choice is :func:`parsph.sph.integrators.steps_for`'s alone: the
-:class:`.integrator.Integrator` calls the functions it returns, and the block's calls
-(:func:`parsph.sph.integrators.integrate_first`, ``integrate_second``) resolve to them as numba types the
-block, inlined (as calls of a stage function of their own the block's step took 8% longer:
-docs/performance.md, "What was tried and lost").
+:class:`.integrator.Integrator` and the block both call :func:`parsph.sph.integrators.integrate_first` and
+``integrate_second``, which in the block resolve to its functions as numba types it, inlined (as calls of
+a stage function of their own the block's step took 8% longer: docs/performance.md, "What was tried and
+lost").
 """
 import numpy as np
 from numba import njit

@@ -218,9 +218,9 @@ class Steps(NamedTuple):
 
 def steps_for(midpoint, threaded):
     """The integration's functions: threaded (prange) or serial, the one place that choice is made for the
-    integration (:func:`parsph.sph.dispatch.threaded` decides ``threaded``). The Python path calls what it
-    returns; compiled code calls :func:`integrate_first` and :func:`integrate_second`, which numba resolves to
-    the same functions as it types the caller, so that a serial block holds no parallel region."""
+    integration (:func:`parsph.sph.dispatch.threaded` decides ``threaded``), through :func:`integrate_first`
+    and :func:`integrate_second`: from Python they call what it returns, and in compiled code numba resolves
+    them to the same functions as it types the caller, so that a serial block holds no parallel region."""
     if threaded:
         return Steps(midpoint_predict if midpoint else step_paper, midpoint_correct)
     return Steps(midpoint_predict_serial if midpoint else step_paper_serial, midpoint_correct_serial)
@@ -229,7 +229,7 @@ def steps_for(midpoint, threaded):
 def integrate_first(threaded, midpoint, pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit):
     """:func:`steps_for`'s ``first`` for the modes ``threaded``, ``midpoint`` (pass_data.switch values; the
     paper's step takes no pos0, vel0); returns the count of bad particles. Compiled code calls the function
-    numba chose as it typed the caller (:func:`_first`); this body runs without the JIT."""
+    numba chose as it typed the caller (:func:`_first`); Python (the Python path's Integrator) runs this body."""
     first = steps_for(len(midpoint) > 0, len(threaded) > 0).first
     if len(midpoint):
         return first(pos, vel, acc, kind, n_own, dt, pos0, vel0, jump, limit, drag, implicit)
