@@ -81,7 +81,9 @@ def test_assembly_is_the_dense_build_face_by_face(shape, kinds, drive):
     kinds = np.array(kinds, np.int64)
     indptr, indices = fv.pattern(nx, ny, nz, kinds[0] != P, kinds[2] != P)
     data, rhs = np.zeros(len(indices)), np.zeros(K.size)
-    fv.assemble(K, V, *h, kinds, *values, *fv.places(indptr, indices, nx, ny, nz), data, rhs,
+    kf, vf = fv.face_arrays(nx, ny, nz), fv.face_arrays(nx, ny, nz)
+    fv.face_values(K, V, kinds[0] == P, kinds[2] == P, *kf, *vf)
+    fv.assemble(K, *kf, *vf, *h, kinds, *values, *fv.places(indptr, indices, nx, ny, nz), data, rhs,
                 not np.any(kinds == Q), drive)
     A = np.zeros((K.size, K.size))
     for r in range(K.size):

@@ -148,6 +148,10 @@ class Darcy:
         self.indptr, self.indices = fv.pattern(nx, ny, nz, x_sides is not None, y_sides is not None)
         self.places = fv.places(self.indptr, self.indices, nx, ny, nz)  # where the assembly adds
         self.data = np.zeros(len(self.indices))
+        self.periodic = (x_sides is None, y_sides is None)
+        self.kf = fv.face_arrays(nx, ny, nz)  # the faces' K_f and V_f (finite_volumes.face_values)
+        self.vf = fv.face_arrays(nx, ny, nz)
+        self.unit_vf = fv.face_arrays(nx, ny, nz)  # V = 0: the unit gradient's (zeros)
         # the band where x has sides (upper form: ab[w + r - c, c] = A[r, c] for c >= r, in the band's order)
         if nz > 1:  # x slowest: half-width ny nz
             self.order, w = np.arange(n), ny * nz
@@ -205,8 +209,9 @@ class Darcy:
         if factor_K is not None:
             K = np.ascontiguousarray(factor_K, float)
             K3 = K.reshape(self.nx, self.ny, self.nz)
-            fv.assemble(K3, np.zeros(K3.shape + (self.dim,)), self.hx, self.hy, self.hz, self.kinds, *self.values,
-                      *self.places, self.data, np.zeros(K.size), self.pin, 0.0)
+            fv.face_values(K3, np.zeros(K3.shape + (self.dim,)), *self.periodic, *self.kf, *self.vf)
+            fv.assemble(K3, *self.kf, *self.vf, self.hx, self.hy, self.hz, self.kinds, *self.values, *self.places,
+                        self.data, np.zeros(K.size), self.pin, 0.0)
             self._factorise(K)
 
     def _factorise(self, K):
@@ -285,11 +290,13 @@ class Darcy:
         shape3 = (self.nx, self.ny, self.nz)
         K3, V3 = K.reshape(shape3), V.reshape(shape3 + (self.dim,))
         h = (self.hx, self.hy, self.hz)
-        fv.assemble(K3, V3, *h, self.kinds, *self.values, *self.places, self.data, self.rhs, self.pin, 0.0)
+        fv.face_values(K3, V3, *self.periodic, *self.kf, *self.vf)
+        fv.assemble(K3, *self.kf, *self.vf, *h, self.kinds, *self.values, *self.places, self.data, self.rhs, self.pin,
+                    0.0)
         rhs = [self.rhs]
-        if self.mean_flux is not None:  # the unit gradient's right-hand side, on the same matrix
-            fv.assemble(K3, np.zeros_like(V3), *h, self.kinds, *self.values, *self.places,
-                      self.unit_data, self.unit_rhs, self.pin, 1.0)
+        if self.mean_flux is not None:  # the unit gradient's right-hand side, on the same matrix (V = 0)
+            fv.assemble(K3, *self.kf, *self.unit_vf, *h, self.kinds, *self.values, *self.places, self.unit_data,
+                        self.unit_rhs, self.pin, 1.0)
             rhs.append(self.unit_rhs)
         with np.errstate(all="ignore"):
             ps = None
@@ -314,11 +321,11 @@ class Darcy:
         self.warm = tuple(ps)
         flat = self._grid_shape
         p = ps[0]
-        js = [flat(j) for j in fv.faces(K3, V3, h, self.kinds, self.values, p.reshape(shape3), 0.0)]
+        js = [flat(j) for j in fv.faces(K3, self.kf, self.vf, h, self.kinds, self.values, p.reshape(shape3), 0.0)]
         if self.mean_flux is not None:
             p1 = ps[1]
-            js1 = [flat(j) for j in fv.faces(K3, np.zeros_like(V3), h, self.kinds, self.values, p1.reshape(shape3),
-                                           1.0)]
+            js1 = [flat(j) for j in fv.faces(K3, self.kf, self.unit_vf, h, self.kinds, self.values,
+                                           p1.reshape(shape3), 1.0)]
             G = (self.mean_flux * (self.ny * self.nz) - js[0][0].sum()) / js1[0][0].sum()
             if not np.isfinite(G):
                 raise SolveFailed("the mean pressure gradient is not finite")

@@ -60,59 +60,125 @@ def _face_v(Ka, Kb, Va, Vb):
     return (Kb * Va + Ka * Vb) / (Ka + Kb)
 
 
+def face_arrays(nx, ny, nz):
+    """Zeroed arrays for :func:`face_values`: per axis the faces across it, (nx + 1, ny, nz), (nx, ny + 1, nz),
+    (nx, ny, nz + 1)."""
+    return tuple(np.zeros(s) for s in ((nx + 1, ny, nz), (nx, ny + 1, nz), (nx, ny, nz + 1)))
+
+
 @njit(cache=True)
-def axis_faces(K, V, axis, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
-    """The mixture's flux along ``axis`` through the faces across it, out (the cells' shape with one more along
-    it), from the solved p' (a given flux where a side gives it); K, p (nx, ny, nz), V (nx, ny, nz, dim).
-    ``drive``: a mean gradient -drive of p' along a periodic axis adds drive K_f to the faces' flux. A side's
-    values are per face, (j, k) flattened on an x side, (i, k) on a y side; z has none (periodic)."""
+def face_values(K, V, periodic_x, periodic_y, kx, ky, kz, vx, vy, vz):
+    """K_f (:func:`_harm`) and V_f (:func:`_face_v`) of every face between two cells, once for the matrix
+    (:func:`assemble`) and the fluxes (:func:`faces`); face f along an axis lies below cell f, and a periodic
+    axis's faces 0 and n both join cell n - 1 to cell 0 (a bounded axis's are left as they are). K (nx, ny, nz),
+    V (nx, ny, nz, dim); faces across z where nz > 1 (z periodic)."""
     nx, ny, nz = K.shape
-    n = K.shape[axis]
-    o0, o1, o2 = out.shape
-    for a in range(o0):
-        for b in range(o1):
-            for c in range(o2):
-                t = a if axis == 0 else (b if axis == 1 else c)
-                side = b * nz + c if axis == 0 else a * nz + c
-                if 0 < t < n:
-                    lo, hi = t - 1, t
-                elif kind_lo == PERIODIC:
-                    lo, hi = n - 1, 0
-                else:
-                    low = t == 0
-                    cell = 0 if low else n - 1
-                    ia, ib, ic = (cell, b, c) if axis == 0 else ((a, cell, c) if axis == 1 else (a, b, cell))
-                    kind = kind_lo if low else kind_hi
-                    v = vals_lo[side] if low else vals_hi[side]
-                    if kind == FLUX:
-                        out[a, b, c] = v
+    for a in range(nx + 1):
+        if 0 < a < nx:
+            lo, hi = a - 1, a
+        elif periodic_x:
+            lo, hi = nx - 1, 0
+        else:
+            continue
+        for b in range(ny):
+            for c in range(nz):
+                Ka, Kb = K[lo, b, c], K[hi, b, c]
+                kx[a, b, c] = _harm(Ka, Kb)
+                vx[a, b, c] = _face_v(Ka, Kb, V[lo, b, c, 0], V[hi, b, c, 0])
+    for a in range(nx):
+        for b in range(ny + 1):
+            if 0 < b < ny:
+                lo, hi = b - 1, b
+            elif periodic_y:
+                lo, hi = ny - 1, 0
+            else:
+                continue
+            for c in range(nz):
+                Ka, Kb = K[a, lo, c], K[a, hi, c]
+                ky[a, b, c] = _harm(Ka, Kb)
+                vy[a, b, c] = _face_v(Ka, Kb, V[a, lo, c, 1], V[a, hi, c, 1])
+    if nz > 1:
+        for a in range(nx):
+            for b in range(ny):
+                for c in range(nz + 1):
+                    lo, hi = (c - 1, c) if 0 < c < nz else (nz - 1, 0)
+                    Ka, Kb = K[a, b, lo], K[a, b, hi]
+                    kz[a, b, c] = _harm(Ka, Kb)
+                    vz[a, b, c] = _face_v(Ka, Kb, V[a, b, lo, 2], V[a, b, hi, 2])
+
+
+@njit(cache=True, inline="always")
+def _through(kf, vf, drive, p_lo, p_hi, h):
+    """A face's flux from its K_f, V_f and the pressures either side."""
+    return vf + drive * kf - kf * (p_hi - p_lo) / h
+
+
+@njit(cache=True, inline="always")
+def _given(kind, v, K, p, sign, h):
+    """A boundary face's flux: the given one, or through half a cell to the given pressure (sign: -1 on the
+    low side, 1 on the high)."""
+    if kind == FLUX:
+        return v
+    return -K * sign * (v - p) / (0.5 * h)
+
+
+@njit(cache=True)
+def axis_faces(K, kf, vf, axis, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, drive):
+    """The mixture's flux along ``axis`` through the faces across it, out (the shape of ``kf``), from the solved
+    p' (a given flux where a side gives it) and the faces' K_f, V_f (:func:`face_values`); K, p (nx, ny, nz).
+    ``drive``: a mean gradient -drive of p' along a periodic axis adds drive K_f to the faces' flux. A side's
+    values are per face, (j, k) flattened on an x side, (i, k) on a y side; z has none (periodic). The inner
+    faces in loops of their own, the sides' after them."""
+    nx, ny, nz = K.shape
+    periodic = kind_lo == PERIODIC
+    if axis == 0:
+        for a in range(1, nx):
+            for b in range(ny):
+                for c in range(nz):
+                    out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[a - 1, b, c], p[a, b, c], h)
+        for b in range(ny):
+            for c in range(nz):
+                for a in (0, nx):
+                    if periodic:
+                        out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[nx - 1, b, c], p[0, b, c], h)
                     else:
-                        sign = -1.0 if low else 1.0
-                        out[a, b, c] = -K[ia, ib, ic] * sign * (v - p[ia, ib, ic]) / (0.5 * h)
-                    continue
-                if axis == 0:
-                    la, lb, lc, ha, hb, hc = lo, b, c, hi, b, c
-                elif axis == 1:
-                    la, lb, lc, ha, hb, hc = a, lo, c, a, hi, c
-                else:
-                    la, lb, lc, ha, hb, hc = a, b, lo, a, b, hi
-                Ka, Kb = K[la, lb, lc], K[ha, hb, hc]
-                Kf = _harm(Ka, Kb)
-                out[a, b, c] = (_face_v(Ka, Kb, V[la, lb, lc, axis], V[ha, hb, hc, axis]) + drive * Kf
-                                - Kf * (p[ha, hb, hc] - p[la, lb, lc]) / h)
+                        cell = 0 if a == 0 else nx - 1
+                        out[a, b, c] = _given(kind_lo if a == 0 else kind_hi,
+                                              vals_lo[b * nz + c] if a == 0 else vals_hi[b * nz + c],
+                                              K[cell, b, c], p[cell, b, c], -1.0 if a == 0 else 1.0, h)
+    elif axis == 1:
+        for a in range(nx):
+            for b in range(1, ny):
+                for c in range(nz):
+                    out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[a, b - 1, c], p[a, b, c], h)
+            for c in range(nz):
+                for b in (0, ny):
+                    if periodic:
+                        out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[a, ny - 1, c], p[a, 0, c], h)
+                    else:
+                        cell = 0 if b == 0 else ny - 1
+                        out[a, b, c] = _given(kind_lo if b == 0 else kind_hi,
+                                              vals_lo[a * nz + c] if b == 0 else vals_hi[a * nz + c],
+                                              K[a, cell, c], p[a, cell, c], -1.0 if b == 0 else 1.0, h)
+    else:
+        for a in range(nx):
+            for b in range(ny):
+                for c in range(1, nz):
+                    out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[a, b, c - 1], p[a, b, c], h)
+                for c in (0, nz):
+                    out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[a, b, nz - 1], p[a, b, 0], h)
 
 
-def faces(K, V, h, kinds, values, p, drive):
+def faces(K, kf, vf, h, kinds, values, p, drive):
     """The mixture's flux through every face along each axis, [jx, jy(, jz)] ((nx + 1, ny, nz), ...), from K,
-    p' (nx, ny, nz) and V (nx, ny, nz, dim); ``drive`` along x only (z periodic)."""
+    p' (nx, ny, nz) and the faces' K_f and V_f (:func:`face_values`: per axis); ``drive`` along x only (z
+    periodic)."""
     out = []
-    for a in range(V.shape[3]):
-        shape = list(K.shape)
-        shape[a] += 1
-        j = np.zeros(shape)
+    for a in range(3 if K.shape[2] > 1 else 2):
+        j = np.zeros(kf[a].shape)
         lo, hi = (values[2 * a], values[2 * a + 1]) if a < 2 else (values[0], values[0])
         kind_lo, kind_hi = (kinds[2 * a], kinds[2 * a + 1]) if a < 2 else (PERIODIC, PERIODIC)
-        axis_faces(K, V, a, h[a], kind_lo, kind_hi, lo, hi, p, j, drive if a == 0 else 0.0)
+        axis_faces(K, kf[a], vf[a], a, h[a], kind_lo, kind_hi, lo, hi, p, j, drive if a == 0 else 0.0)
         out.append(j)
     return out
 
@@ -149,12 +215,12 @@ def places(indptr, indices, nx, ny, nz):
 
 
 @njit(cache=True)
-def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, diag, across, data, rhs, pin,
-             drive):
+def assemble(K, kx, ky, kz, vx, vy, vz, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y, diag,
+             across, data, rhs, pin, drive):
     """The matrix's values (on its fixed pattern, whose places :func:`places` gives as ``diag``, ``across``)
     and the right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f +
     given fluxes) times their areas, g = area K_f / distance; ``drive`` as in :func:`axis_faces`. K (nx, ny, nz),
-    V (nx, ny, nz, dim); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
+    the faces' K_f and V_f per axis (:func:`face_values`); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
     (j, k) flattened on an x side, (i, k) on a y side. A cell's sides in the order -x, +x, -y, +y(, -z, +z):
     its diagonal and right-hand side sum them in that order."""
     nx, ny, nz = K.shape
@@ -174,25 +240,24 @@ def assemble(K, V, hx, hy, hz, kinds, vals_lo_x, vals_hi_x, vals_lo_y, vals_hi_y
                         h, area = hy, hx * hz
                     else:
                         h, area = hz, hx * hy
-                    ii, jj, kk = i, j, k
                     inside = True
                     if axis == 0:
-                        ii = i + 1 if up else i - 1
-                        if ii < 0 or ii >= nx:
+                        if (i == 0 and not up) or (i == nx - 1 and up):
                             inside = kinds[0] == PERIODIC
-                            ii = ii % nx
+                        f = i + 1 if up else i
+                        Kf, Vf = kx[f, j, k], vx[f, j, k]
                     elif axis == 1:
-                        jj = j + 1 if up else j - 1
-                        if jj < 0 or jj >= ny:
+                        if (j == 0 and not up) or (j == ny - 1 and up):
                             inside = kinds[2] == PERIODIC
-                            jj = jj % ny
+                        f = j + 1 if up else j
+                        Kf, Vf = ky[i, f, k], vy[i, f, k]
                     else:
-                        kk = (k + 1 if up else k - 1) % nz
+                        f = k + 1 if up else k
+                        Kf, Vf = kz[i, j, f], vz[i, j, f]
                     sign = 1.0 if up else -1.0
                     if inside:
-                        Kf = _harm(K[i, j, k], K[ii, jj, kk])
                         g = area * Kf / h
-                        vout = sign * _face_v(K[i, j, k], K[ii, jj, kk], V[i, j, k, axis], V[ii, jj, kk, axis])
+                        vout = sign * Vf
                         if axis == 0:
                             vout += sign * drive * Kf
                         rhs[c] -= area * vout
