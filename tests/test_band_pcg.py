@@ -86,15 +86,15 @@ def test_preconditioned_cg_converges_to_the_sparse_lu_solve():
     T, order = np.ascontiguousarray(c.T), np.arange(n, dtype=np.int64)
     b = np.random.default_rng(5).normal(size=n)
     x = np.zeros(n)
-    scratch = np.zeros((5, n))
-    its = band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, x, 1e-12, 50, scratch)
+    scratch, work = np.zeros((4, n)), np.zeros(n)
+    its = band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, x, 1e-12, 50, scratch, work)
     assert 1 < its < 50
     ref = spla.splu(A.tocsc()).solve(b)
     assert np.abs(A @ x - b).max() <= 1e-12 * np.abs(b).max()
     np.testing.assert_allclose(x, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
     assert band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, np.zeros(n), 1e-12, 1,
-                        scratch) == -1
+                        scratch, work) == -1
     bad = b.copy()
     bad[7] = np.nan
     assert band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, bad, np.zeros(n), 1e-12, 50,
-                        scratch) == -1
+                        scratch, work) == -1

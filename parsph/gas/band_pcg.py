@@ -44,7 +44,7 @@ def _dot4(a, a0, b, b0, m):
 @njit(cache=True)
 def band_solve(T, order, b, x, work):
     """x = A^-1 b for A = P U^T U P^T (U's transpose ``T``, (n, w + 1); ``order`` the band's cells); ``work``
-    (n) scratch. ``x`` may be ``b``."""
+    (n) scratch, in T's precision: the sweeps run in it. ``x`` may be ``b``."""
     n, w1 = T.shape
     w = w1 - 1
     flat = T.reshape(-1)
@@ -85,13 +85,14 @@ def band_solve(T, order, b, x, work):
 
 
 @njit(cache=True)
-def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch):
+def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
     """A x = b (A in CSR form) by conjugate gradients preconditioned with the factor (``T``, ``order``:
-    :func:`band_solve`) of an earlier matrix, from x as given, x updated in place; ``scratch`` (5, n).
+    :func:`band_solve`) of an earlier matrix, from x as given, x updated in place; ``scratch`` (4, n), ``work``
+    (n) in T's precision (the sweeps').
     Returns the iterations, or -1 where max |residual| has not reached rtol max |b| in ``max_iter`` or is
     not finite."""
     n = len(b)
-    r, z, d, Ap, work = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
+    r, z, d, Ap = scratch[0], scratch[1], scratch[2], scratch[3]
     scale = 0.0
     for k in range(n):
         scale = max(scale, abs(b[k]))

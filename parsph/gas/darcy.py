@@ -181,7 +181,8 @@ class Darcy:
         self.unit_rhs = np.zeros(n)
         self.unit_data = np.zeros_like(self.data)
         self.ab = np.zeros((w + 1, n)) if self.banded and not self.split else None
-        self._scratch = np.zeros((5, n)) if self.ab is not None else None  # band_pcg.pcg's vectors
+        self._scratch = np.zeros((4, n)) if self.ab is not None else None  # band_pcg.pcg's vectors
+        self._work = {np.dtype(t): np.zeros(n, t) for t in (np.float64, np.float32)}  # the sweeps', per precision
         self._band = None      # a whole band's factor (its transpose, the band's order), for band_pcg
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
@@ -215,6 +216,8 @@ class Darcy:
             self._factorise(K)
 
     def _factorise(self, K):
+        """Factorise the assembled matrix (of K) and keep the factor; returns the direct solve with it (a whole
+        band's in double precision, kept in single: the module docstring)."""
         n = self.nx * self.ny * self.nz
         self._band = None
         if self.split:
@@ -225,14 +228,12 @@ class Darcy:
             self.ab[:] = 0.0
             self.ab[self.band_at] = self.data[self.upper]
             T = np.ascontiguousarray(sla.cholesky_banded(self.ab, check_finite=False).T)
-            band = self._band = (T, np.ascontiguousarray(self.order, np.int64))
-            work = self._scratch[4]
-
-            def factor(b):
-                x = np.empty_like(b)
-                band_pcg.band_solve(*band, b, x, work)
-                return x
-            self._factor = factor
+            order = np.ascontiguousarray(self.order, np.int64)
+            # the solve right after is the double factor's; the iterations after it are preconditioned with the
+            # factor in single precision (module docstring)
+            self._band = (T.astype(np.float32), order)
+            self._factor = self._band_solve(*self._band)
+            direct = self._band_solve(T, order)
         else:
             A = sp.csc_matrix(sp.csr_matrix((self.data, self.indices, self.indptr), shape=(n, n)))
             if self.ordered:
@@ -241,14 +242,26 @@ class Darcy:
                 self._factor = spla.splu(A).solve
         self.factor_K = K.copy()
         self.factorisations += 1
+        return direct if self._band is not None else self._factor
+
+    def _band_solve(self, T, order):
+        """x = A^-1 b with a whole band's factor ``T`` (double: the direct solve; single: the preconditioner)."""
+        work = self._work[T.dtype]
+
+        def solve(b):
+            x = np.empty_like(b)
+            band_pcg.band_solve(T, order, b, x, work)
+            return x
+        return solve
 
     def _pcg(self, b, x0):
         """A x = b by conjugate gradients preconditioned with the kept factor, from x0; (x, iterations), x
         None where it has not converged in MAX_ITER."""
         if self._band is not None:  # compiled: the same iteration with the band's sweeps (band_pcg)
             x = x0.copy()
-            it = band_pcg.pcg(self.indptr, self.indices, self.data, *self._band, b, x, RTOL, MAX_ITER,
-                              self._scratch)
+            T, order = self._band
+            it = band_pcg.pcg(self.indptr, self.indices, self.data, T, order, b, x, RTOL, MAX_ITER, self._scratch,
+                              self._work[T.dtype])
             return (x, it) if it >= 0 else (None, MAX_ITER)
         scale = np.abs(b).max()
         if scale == 0.0:
@@ -307,8 +320,8 @@ class Darcy:
                     ps = [x for x, _ in tried]
             if ps is None:
                 try:
-                    self._factorise(K)
-                    ps = [self._factor(b) for b in rhs]
+                    direct = self._factorise(K)
+                    ps = [direct(b) for b in rhs]
                 except (RuntimeError, np.linalg.LinAlgError, ValueError) as e:  # singular or indefinite
                     self._factor = None
                     raise SolveFailed(str(e)) from None
