@@ -104,7 +104,7 @@ def _deposit(pos, vel, mass, kind, rho_s=2000.0):
     out = np.zeros((nx, ny, nz, 5), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
     deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, nz, Lx / nx, Ly / ny, Lz / nz, Lx, Ly, Lz,
-                    True, False, Ly, out, rates, 30.0)
+                    True, False, Ly, out, rates, np.zeros(len(mass)), 30.0)
     return out
 
 
@@ -149,7 +149,7 @@ def test_deposit_conserves_volume_and_drag_and_interpolation_is_its_transpose():
     rounding = 8 * fluid.sum() * 0.5 / deposit.SCALE * vol  # each of the 8 terms a particle adds rounds once
     assert abs(sums[..., 0].sum() / deposit.SCALE * vol - (mass[fluid] / rho_s).sum()) <= rounding
     C = 100.0 * np.abs(vel[fluid, 0])
-    R, V_R = deposit.resistance_of(sums, rho_s, 30.0)
+    _, R, V_R = deposit.cells_of(sums, rho_s, 30.0)
     assert V_R.shape == (nx, ny, nz, 3)
     r_rounding = 8 * fluid.sum() * 0.5 / deposit.RATE_SCALE * rho_s * 30.0 * vol
     assert abs(R.sum() * vol - (mass[fluid] * C).sum()) <= r_rounding

@@ -175,7 +175,7 @@ def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0, sides=False, ri
     out = np.zeros((nx, ny, 4), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
     deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, 1, Lx / nx, Ly / ny, 1.0, Lx, Ly, 0.0, True,
-                    sides, ring or Ly, out[:, :, None], rates, 30.0)
+                    sides, ring or Ly, out[:, :, None], rates, np.zeros(len(mass)), 30.0)
     return out
 
 
@@ -220,7 +220,7 @@ def test_deposit_conserves_volume_and_drag_in_any_order():
     assert abs(sums[..., 0].sum() / deposit.SCALE * area - (mass[fluid] / rho_s).sum()) <= rounding
     # the resistance: sum of m C over the particles (C = 100 |v_x| here), and of m C v (the drag's velocity)
     C = 100.0 * np.abs(vel[fluid, 0])
-    R, V_R = deposit.resistance_of(sums, rho_s, 30.0)
+    _, R, V_R = deposit.cells_of(sums, rho_s, 30.0)
     r_rounding = 4 * fluid.sum() * 0.5 / deposit.RATE_SCALE * rho_s * 30.0 * area
     assert abs(R.sum() * area - (mass[fluid] * C).sum()) <= r_rounding
     for c in (0, 1):
@@ -585,7 +585,8 @@ def test_plot_grid_draws_each_output_and_animates_them(tmp_path):
     gif = tmp_path / "bed.gif"
     assert main(["plot", str(tmp_path), "--grid", "--animate", str(gif)]) == 0
     assert sorted(p.name for p in tmp_path.glob("*.png")) == [f"bed_grid_theta_000{k}.png" for k in range(3)]
-    assert Image.open(gif).n_frames == 3
+    with Image.open(gif) as im:
+        assert im.n_frames == 3
     assert main(["plot", str(tmp_path), "--grid", "--field", "vy"]) == 2
     assert main(["plot", str(tmp_path), "--grid", "--field", "p", "--animate", str(tmp_path / "x.avi")]) == 2
     assert main(["plot", str(tmp_path), "--particles", "--animate", str(tmp_path / "p.gif")]) == 2
@@ -597,7 +598,8 @@ def test_plot_grid_draws_each_output_and_animates_them(tmp_path):
     assert main(["plot", str(tmp_path), "--field", "p", "--times", "0.004"]) == 0
     assert [p.name for p in tmp_path.glob("*.png")] == ["bed_grid_p_0002.png"]
     assert main(["plot", str(tmp_path), "--animate", str(gif)]) == 0
-    assert Image.open(gif).n_frames == 3 and len(list(tmp_path.glob("bed_grid_theta_*.png"))) == 3
+    with Image.open(gif) as im:
+        assert im.n_frames == 3 and len(list(tmp_path.glob("bed_grid_theta_*.png"))) == 3
 
 
 @pytest.mark.parametrize("extra", [["gas.solve_every=3"], ['gas.drag="wen_yu"']])

@@ -85,6 +85,15 @@ def band_solve(T, order, b, x, work):
 
 
 @njit(cache=True)
+def finite(x):
+    """Whether every x is finite (one pass: a NaN or an infinity makes the sum of x * 0 a NaN)."""
+    s = 0.0
+    for k in range(len(x)):
+        s += x[k] * 0.0
+    return s == 0.0
+
+
+@njit(cache=True)
 def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
     """A x = b (A in CSR form) by conjugate gradients preconditioned with the factor (``T``, ``order``:
     :func:`band_solve`) of an earlier matrix, from x as given, x updated in place; ``scratch`` (4, n), ``work``

@@ -79,10 +79,14 @@ class Solution:
 
     def centred(self):
         """j at the cell centres (cells..., dim): the mean of each cell's two faces along each axis."""
-        parts = [0.5 * (self.jx[:-1] + self.jx[1:]), 0.5 * (self.jy[:, :-1] + self.jy[:, 1:])]
-        if self.jz is not None:
-            parts.append(0.5 * (self.jz[:, :, :-1] + self.jz[:, :, 1:]))
-        return np.stack(parts, axis=-1)
+        nx, ny = self.p.shape[:2]
+        nz = self.p.shape[2] if self.p.ndim == 3 else 1
+        dim = 2 if self.jz is None else 3
+        out = np.empty((nx, ny, nz, dim))
+        jz = self.jz if self.jz is not None else np.zeros((1, 1, 1))
+        fv.centred(np.ascontiguousarray(self.jx).reshape(nx + 1, ny, nz),
+                   np.ascontiguousarray(self.jy).reshape(nx, ny + 1, nz), np.ascontiguousarray(jz), out)
+        return out.reshape(self.p.shape + (dim,))
 
 
 def band_order(nx, ny, periodic_y):
@@ -328,7 +332,7 @@ class Darcy:
                 self.iterations = 0
             if not self.reuse or self.iterations > REFRESH_ITER:
                 self._factor = None
-        if not all(np.all(np.isfinite(x)) for x in ps):
+        if not all(band_pcg.finite(x) for x in ps):
             self._factor = None
             raise SolveFailed("the pressure is not finite")
         self.warm = tuple(ps)

@@ -54,17 +54,19 @@ def _axis_weights(x, h, n, length, bounded, period):
 
 
 @njit(cache=True)
-def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out, rate,
-            rate_ref):
-    """Add the owned fluid particles' theta and, where ``rate`` has them, their drag resistance m C / (V R_ref)
-    and that times v (fixed point) to out (shape (nx, ny, nz, 2 + dim): theta, R, R v_x.. of a cell side by
-    side, which a particle's corners then touch in one cache line each: 2.4x faster than a plane per
-    quantity); ``rate[k]``: the particle's drag rate C [1/s], ``rate_ref``: R_ref / rho_s [1/s]. ``walls``:
+def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out, drag,
+            theta, rate_ref):
+    """out = the owned fluid particles' theta and, where ``drag`` has them, their drag resistance m C / (V R_ref)
+    and that times v (fixed point), (nx, ny, nz, 2 + dim): theta, R, R v_x.. of a cell side by side, which a
+    particle's corners then touch in one cache line each: 2.4x faster than a plane per quantity. The particle's
+    drag rate C [1/s] is ``drag[k] / (1 - theta[k])`` (the closure's K per particle and its theta), ``rate_ref``
+    R_ref / rho_s [1/s]. ``walls``:
     x bounded by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in
     the particles' period ``ring`` along y; z periodic (3-D, nz > 1; in 2-D nz = 1, hz = 1)."""
     three = nz > 1
     inv = 1.0 / (rho_s * hx * hy * hz)
-    resist = len(rate) > 0
+    resist = len(drag) > 0
+    out[:] = 0
     k0, k1, wz0, wz1 = 0, 0, 1.0, 0.0
     for k in range(n_own):
         if kind[k] != GRAIN:
@@ -74,7 +76,7 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, 
         if three:
             k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
         vol = mass[k] * inv
-        r = rate[k] / rate_ref if resist else 0.0
+        r = drag[k] / (1.0 - theta[k]) / rate_ref if resist else 0.0
         vx, vy = vel[k, 0], vel[k, 1]
         vz = vel[k, 2] if three else 0.0
         for az in range(2 if three else 1):
@@ -130,29 +132,25 @@ def interpolate(pos, kind, n_own, field, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, wal
                          + wz1 * _bilinear(field, i0, i1, j0, j1, k1, c, wx0, wx1, wy0, wy1))
 
 
-def resistance_of(sums, rho_s, rate_ref):
-    """R = sum_i w m_i C_i / V per cell [kg/(m^3 s)] from the summed deposits (cells..., 2 + dim), and the
-    velocity its particles' drag is weighted by, V_R = sum_i w m_i C_i v_i / sum_i w m_i C_i (cells..., dim;
-    0 where R = 0): the cell's particles feel the drag R (W - V_R) for a target W, so that with K = 1 / R and
-    W = V_R - K grad p' the grid's -grad p' is the sum of their drag."""
+def cells_of(sums, rho_s, rate_ref):
+    """theta, R and V_R per cell from the summed deposits (cells..., 2 + dim), in one pass over them:
+    theta; R = sum_i w m_i C_i / V [kg/(m^3 s)]; and the velocity its particles' drag is weighted by,
+    V_R = sum_i w m_i C_i v_i / sum_i w m_i C_i (cells..., dim; 0 where R = 0). The cell's particles feel the
+    drag R (W - V_R) for a target W, so that with K = 1 / R and W = V_R - K grad p' the grid's -grad p' is the
+    sum of their drag."""
     dim = sums.shape[-1] - 2
-    R = np.empty(sums.shape[:-1])
-    V = np.empty(sums.shape[:-1] + (dim,))
-    _resistance(sums.reshape(-1, dim + 2), rho_s * rate_ref, R.reshape(-1), V.reshape(-1, dim))
-    return R, V
+    cells = sums.shape[:-1]
+    theta, R, V = np.empty(cells), np.empty(cells), np.empty(cells + (dim,))
+    _cells(sums.reshape(-1, dim + 2), rho_s * rate_ref, theta.reshape(-1), R.reshape(-1), V.reshape(-1, dim))
+    return theta, R, V
 
 
 @njit(cache=True)
-def _resistance(sums, scale, R, V):
-    """resistance_of over the cells in a row: one pass, no temporaries (the same operations, the same bits)."""
+def _cells(sums, scale, theta, R, V):
     dim = V.shape[1]
     for k in range(sums.shape[0]):
+        theta[k] = sums[k, 0] / SCALE
         s = sums[k, 1]
         R[k] = s / RATE_SCALE * scale
         for c in range(dim):
             V[k, c] = sums[k, 2 + c] / s if s > 0 else 0.0
-
-
-def theta_of(sums):
-    """theta per cell from the summed fixed-point deposits."""
-    return sums[..., 0] / SCALE

@@ -169,6 +169,20 @@ def axis_faces(K, kf, vf, axis, h, kind_lo, kind_hi, vals_lo, vals_hi, p, out, d
                     out[a, b, c] = _through(kf[a, b, c], vf[a, b, c], drive, p[a, b, nz - 1], p[a, b, 0], h)
 
 
+@njit(cache=True)
+def centred(jx, jy, jz, out):
+    """out (nx, ny, nz, dim) = the faces' flux at the cell centres, the mean of each cell's two faces along each
+    axis; jx (nx + 1, ny, nz), jy (nx, ny + 1, nz), jz (nx, ny, nz + 1) (3-D)."""
+    nx, ny, nz, dim = out.shape
+    for a in range(nx):
+        for b in range(ny):
+            for c in range(nz):
+                out[a, b, c, 0] = 0.5 * (jx[a, b, c] + jx[a + 1, b, c])
+                out[a, b, c, 1] = 0.5 * (jy[a, b, c] + jy[a, b + 1, c])
+                if dim == 3:
+                    out[a, b, c, 2] = 0.5 * (jz[a, b, c] + jz[a, b, c + 1])
+
+
 def faces(K, kf, vf, h, kinds, values, p, drive):
     """The mixture's flux through every face along each axis, [jx, jy(, jz)] ((nx + 1, ny, nz), ...), from K,
     p' (nx, ny, nz) and the faces' K_f and V_f (:func:`face_values`: per axis); ``drive`` along x only (z

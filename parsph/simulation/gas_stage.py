@@ -90,7 +90,6 @@ class GasStage:
         self.solves = 0
         self.j = None          # the mixture's flux at the cell centres (cells..., dim)
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
-        self.rates = np.zeros(0)
         self.no_stream = np.zeros(3)
         self.three_d = pass_data.switch(g.dim == 3)  # the velocities' stride (drag_rates)
         self.before = (None, None, (None, None))  # what the last call started from (j, solved_at, darcy's start)
@@ -157,15 +156,12 @@ class GasStage:
 
     def solve(self, ps, step, t):
         g, gas = self.grid, self.gas
-        if len(self.rates) < ps.n_own:
-            self.rates = np.zeros(ps.capacity)
         failed = None
         # a slip-dependent closure's C at the slip toward the last solve's flux, interpolated to the particles'
         # places now (j is what a restart point keeps: the same bits after a restart); at the first solve, toward
         # a first solve's flux of C at no slip
         lagged = gas.model != STOKES and self.j is not None
         passes = 1 if gas.model == STOKES or lagged else 2
-        n = ps.n_own
         if lagged:
             self._interpolate(ps)
         if gas.jet_until < np.inf:  # a jet that stops: the floor's feed at this state's time
@@ -175,14 +171,11 @@ class GasStage:
             # velocity); the last pass's K are the particles' (ps.drag_rate: the passes read them, so that the
             # drag the grains feel sums to the grid's -grad p')
             self._rates(ps, ps.flux if p > 0 or lagged else ps.vel, ps.drag_rate)
-            self.rates[:n] = ps.drag_rate[:n] / (1.0 - ps.theta[:n])
-            self.sums[:] = 0
             deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.nz, g.hx, g.hy,
                             g.hz, g.nx * g.hx, g.ny * g.hy, g.nz * g.hz, g.walls, g.sides, self.ring,
-                            self.sums.reshape(g.shape3 + self.sums.shape[-1:]), self.rates, self.rate_ref)
+                            self.sums.reshape(g.shape3 + self.sums.shape[-1:]), ps.drag_rate, ps.theta, self.rate_ref)
             self.exchange(self.sums)
-            theta = deposit.theta_of(self.sums)
-            R, V = deposit.resistance_of(self.sums, self.rho_s, self.rate_ref)
+            theta, R, V = deposit.cells_of(self.sums, self.rho_s, self.rate_ref)
             K = permeability.from_resistance(R, self.K_max)
             try:
                 sol = self.darcy.solve(K, V)
@@ -191,7 +184,7 @@ class GasStage:
             if self.exchange.agree_failed(failed is not None):
                 raise SolveError(f"the gas pressure solve failed at step {step}, t = {t:.6g} s "
                                  f"({failed or 'on another rank'})")
-            self.j = np.ascontiguousarray(sol.centred())
+            self.j = sol.centred()
             if p + 1 < passes:
                 self._interpolate(ps)
         sol.theta, sol.V, sol.K = theta, V, K
