@@ -99,20 +99,26 @@ def test_random_3d_fields_have_no_divergence_and_two_solvers_agree(nx, ny, nz, b
 BOX = (5, 4, 3, 0.5, 0.4, 0.3)  # nx, ny, nz, Lx, Ly, Lz
 
 
+def _places(pos, kind):
+    """The particles' cells and weights on BOX's grid (deposit.weights)."""
+    nx, ny, nz, Lx, Ly, Lz = BOX
+    cells, w = np.zeros((len(pos), 6), np.int32), np.zeros((len(pos), 6))
+    deposit.weights(pos, kind, len(pos), nx, ny, nz, Lx / nx, Ly / ny, Lz / nz, Lx, Ly, Lz, True, False, Ly, cells, w)
+    return cells, w
+
+
 def _deposit(pos, vel, mass, kind, rho_s=2000.0):
     nx, ny, nz, Lx, Ly, Lz = BOX
     out = np.zeros((nx, ny, nz, 5), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
-    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, nz, Lx / nx, Ly / ny, Lz / nz, Lx, Ly, Lz,
-                    True, False, Ly, out, rates, np.zeros(len(mass)), 30.0)
+    deposit.deposit(*_places(pos, kind), vel, mass, len(mass), rho_s, Lx / nx, Ly / ny, Lz / nz, out, rates,
+                    np.zeros(len(mass)), 30.0)
     return out
 
 
 def _interpolate(pos, kind, field):
-    nx, ny, nz, Lx, Ly, Lz = BOX
     at = np.zeros((len(pos), field.shape[-1]))
-    deposit.interpolate(pos, kind, len(pos), field, nx, ny, nz, Lx / nx, Ly / ny, Lz / nz, Lx, Ly, Lz, True, False,
-                        Ly, at)
+    deposit.interpolate(*_places(pos, kind), len(pos), field, at)
     return at
 
 

@@ -171,19 +171,28 @@ def _particles(n, Lx, Ly, seed=2):
     return pos, vel, mass, kind
 
 
+def _places(pos, kind, nx, ny, Lx, Ly, sides, ring):
+    """The particles' cells and weights on the 2-D grid (deposit.weights)."""
+    cells, w = np.zeros((len(pos), 4), np.int32), np.zeros((len(pos), 4))
+    deposit.weights(pos, kind, len(pos), nx, ny, 1, Lx / nx, Ly / ny, 1.0, Lx, Ly, 0.0, True, sides, ring or Ly,
+                    cells, w)
+    return cells, w
+
+
 def _deposit(pos, vel, mass, kind, nx, ny, Lx, Ly, rho_s=2000.0, sides=False, ring=None):
     out = np.zeros((nx, ny, 4), np.int64)
     rates = np.abs(vel[:, 0]) * 100.0  # any drag rates [1/s]
-    deposit.deposit(pos, vel, mass, kind, len(mass), rho_s, nx, ny, 1, Lx / nx, Ly / ny, 1.0, Lx, Ly, 0.0, True,
-                    sides, ring or Ly, out[:, :, None], rates, np.zeros(len(mass)), 30.0)
+    cells, w = _places(pos, kind, nx, ny, Lx, Ly, sides, ring)
+    deposit.deposit(cells, w, vel, mass, len(mass), rho_s, Lx / nx, Ly / ny, 1.0, out[:, :, None], rates,
+                    np.zeros(len(mass)), 30.0)
     return out
 
 
 def _interpolate(pos, kind, field, nx, ny, Lx, Ly, sides=False, ring=None):
     """The 2-D field (nx, ny, c) at the particles."""
     at = np.zeros((len(pos), field.shape[-1]))
-    deposit.interpolate(pos, kind, len(pos), field[:, :, None, :], nx, ny, 1, Lx / nx, Ly / ny, 1.0, Lx, Ly, 0.0,
-                        True, sides, ring or Ly, at)
+    cells, w = _places(pos, kind, nx, ny, Lx, Ly, sides, ring)
+    deposit.interpolate(cells, w, len(pos), field[:, :, None, :], at)
     return at
 
 

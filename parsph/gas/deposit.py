@@ -54,27 +54,46 @@ def _axis_weights(x, h, n, length, bounded, period):
 
 
 @njit(cache=True)
-def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out, drag,
-            theta, rate_ref):
+def weights(pos, kind, n_own, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, cells, w):
+    """The cloud in cell's cells and weights of the owned particles, made once for a deposit and the
+    interpolations at the same places (together 1.9x faster than each finding them: docs/performance.md): per
+    axis a the two cells ``cells[k, 2a]``, ``cells[k, 2a + 1]`` and their weights ``w[k, 2a]``, ``w[k, 2a + 1]``
+    (cells (n, 2 dim) int32, w (n, 2 dim)); ``cells[k, 0]`` = -1 where particle k is not a grain. ``walls``: x
+    bounded by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in the
+    particles' period ``ring`` along y; z periodic (3-D, nz > 1; in 2-D nz = 1, hz = 1)."""
+    for k in range(n_own):
+        if kind[k] != GRAIN:
+            cells[k, 0] = -1
+            continue
+        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
+        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
+        cells[k, 0], cells[k, 1], cells[k, 2], cells[k, 3] = i0, i1, j0, j1
+        w[k, 0], w[k, 1], w[k, 2], w[k, 3] = wx0, wx1, wy0, wy1
+        if nz > 1:
+            k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
+            cells[k, 4], cells[k, 5] = k0, k1
+            w[k, 4], w[k, 5] = wz0, wz1
+
+
+@njit(cache=True)
+def deposit(cells, w, vel, mass, n_own, rho_s, hx, hy, hz, out, drag, theta, rate_ref):
     """out = the owned fluid particles' theta and, where ``drag`` has them, their drag resistance m C / (V R_ref)
     and that times v (fixed point), (nx, ny, nz, 2 + dim): theta, R, R v_x.. of a cell side by side, which a
-    particle's corners then touch in one cache line each: 2.4x faster than a plane per quantity. The particle's
-    drag rate C [1/s] is ``drag[k] / (1 - theta[k])`` (the closure's K per particle and its theta), ``rate_ref``
-    R_ref / rho_s [1/s]. ``walls``:
-    x bounded by plates (else periodic); ``sides``: y bounded by side walls at 0 and Ly (else periodic), in
-    the particles' period ``ring`` along y; z periodic (3-D, nz > 1; in 2-D nz = 1, hz = 1)."""
-    three = nz > 1
+    particle's corners then touch in one cache line each: 2.4x faster than a plane per quantity. ``cells``, ``w``:
+    :func:`weights`'. The particle's drag rate C [1/s] is ``drag[k] / (1 - theta[k])`` (the closure's K per
+    particle and its theta), ``rate_ref`` R_ref / rho_s [1/s]; hz = 1 in 2-D."""
+    three = out.shape[2] > 1
     inv = 1.0 / (rho_s * hx * hy * hz)
     resist = len(drag) > 0
     out[:] = 0
     k0, k1, wz0, wz1 = 0, 0, 1.0, 0.0
     for k in range(n_own):
-        if kind[k] != GRAIN:
+        if cells[k, 0] < 0:
             continue
-        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
-        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
+        i0, i1, j0, j1 = cells[k, 0], cells[k, 1], cells[k, 2], cells[k, 3]
+        wx0, wx1, wy0, wy1 = w[k, 0], w[k, 1], w[k, 2], w[k, 3]
         if three:
-            k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
+            k0, k1, wz0, wz1 = cells[k, 4], cells[k, 5], w[k, 4], w[k, 5]
         vol = mass[k] * inv
         r = drag[k] / (1.0 - theta[k]) / rate_ref if resist else 0.0
         vx, vy = vel[k, 0], vel[k, 1]
@@ -89,10 +108,10 @@ def deposit(pos, vel, mass, kind, n_own, rho_s, nx, ny, nz, hx, hy, hz, Lx, Ly, 
                     wxy = wx * (wy1 if ay else wy0)
                     if three:
                         wxy *= wz1 if az else wz0
-                    w = wxy * vol
-                    out[i, j, kz, 0] += np.int64(round(w * SCALE))
+                    wk = wxy * vol
+                    out[i, j, kz, 0] += np.int64(round(wk * SCALE))
                     if resist:  # the components written out: a loop over them took twice as long
-                        wr = w * r
+                        wr = wk * r
                         out[i, j, kz, 1] += np.int64(round(wr * RATE_SCALE))
                         out[i, j, kz, 2] += np.int64(round(wr * vx * RATE_SCALE))
                         out[i, j, kz, 3] += np.int64(round(wr * vy * RATE_SCALE))
@@ -107,26 +126,27 @@ def _bilinear(field, i0, i1, j0, j1, kz, c, wx0, wx1, wy0, wy1):
 
 
 @njit(cache=True)
-def interpolate(pos, kind, n_own, field, nx, ny, nz, hx, hy, hz, Lx, Ly, Lz, walls, sides, ring, out):
+def interpolate(cells, w, n_own, field, out):
     """out[k] = the cell-centred ``field`` (nx, ny, nz, c) at the owned fluid particles, with the deposit's
-    weights (others get zeros). The first two components written out, the rest in a loop: a loop over all of
-    them took 1.5x as long."""
+    weights (:func:`weights`; others get zeros). The first two components written out, the rest in a loop: a
+    loop over all of them took 1.5x as long."""
     nc = field.shape[3]
+    three = field.shape[2] > 1
     for k in range(n_own):
-        if kind[k] != GRAIN:
+        if cells[k, 0] < 0:
             for c in range(nc):
                 out[k, c] = 0.0
             continue
-        i0, i1, wx0, wx1 = _axis_weights(pos[k, 0], hx, nx, Lx, walls, 0.0 if walls else Lx)
-        j0, j1, wy0, wy1 = _axis_weights(pos[k, 1], hy, ny, Ly, sides, ring)
-        if nz == 1:
+        i0, i1, j0, j1 = cells[k, 0], cells[k, 1], cells[k, 2], cells[k, 3]
+        wx0, wx1, wy0, wy1 = w[k, 0], w[k, 1], w[k, 2], w[k, 3]
+        if not three:
             out[k, 0] = _bilinear(field, i0, i1, j0, j1, 0, 0, wx0, wx1, wy0, wy1)
             if nc > 1:
                 out[k, 1] = _bilinear(field, i0, i1, j0, j1, 0, 1, wx0, wx1, wy0, wy1)
             for c in range(2, nc):
                 out[k, c] = _bilinear(field, i0, i1, j0, j1, 0, c, wx0, wx1, wy0, wy1)
             continue
-        k0, k1, wz0, wz1 = _axis_weights(pos[k, 2], hz, nz, Lz, False, Lz)
+        k0, k1, wz0, wz1 = cells[k, 4], cells[k, 5], w[k, 4], w[k, 5]
         for c in range(nc):
             out[k, c] = (wz0 * _bilinear(field, i0, i1, j0, j1, k0, c, wx0, wx1, wy0, wy1)
                          + wz1 * _bilinear(field, i0, i1, j0, j1, k1, c, wx0, wx1, wy0, wy1))

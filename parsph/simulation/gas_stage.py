@@ -91,6 +91,8 @@ class GasStage:
         self.j = None          # the mixture's flux at the cell centres (cells..., dim)
         self.solution = None   # the last darcy.Solution, with theta, V and K of its deposit
         self.no_stream = np.zeros(3)
+        self.cells = np.zeros((0, 2 * g.dim), np.int32)  # the owned particles' cells and weights (_place)
+        self.weights = np.zeros((0, 2 * g.dim))
         self.three_d = pass_data.switch(g.dim == 3)  # the velocities' stride (drag_rates)
         self.before = (None, None, (None, None))  # what the last call started from (j, solved_at, darcy's start)
         self.earlier = self.before                # and the call before it
@@ -100,6 +102,7 @@ class GasStage:
         """ps.flux of the owned particles for the state at ``step``, ``t`` (a solve where one is due)."""
         self.earlier = self.before
         self.before = (self.j, self.solved_at, self.darcy.start())
+        self._place(ps)
         due = self.j is None or self.every == 1 or (step % self.every == 0 and step != self.solved_at)
         if due:
             self.solve(ps, step, t)
@@ -142,11 +145,19 @@ class GasStage:
         warm = grid.get("start/warm")
         self.darcy.restore(grid.get("start/factor_K"), None if warm is None else list(warm))
 
+    def _place(self, ps):
+        """The owned particles' cells and weights on the grid (deposit.weights), for this call's deposits and
+        interpolations."""
+        g = self.grid
+        if len(self.cells) < ps.n_own:
+            self.cells = np.zeros((ps.capacity, 2 * g.dim), np.int32)
+            self.weights = np.zeros((ps.capacity, 2 * g.dim))
+        deposit.weights(ps.pos, ps.kind, ps.n_own, g.nx, g.ny, g.nz, g.hx, g.hy, g.hz, g.nx * g.hx, g.ny * g.hy,
+                        g.nz * g.hz, g.walls, g.sides, self.ring, self.cells, self.weights)
+
     def _interpolate(self, ps):
         g = self.grid
-        deposit.interpolate(ps.pos, ps.kind, ps.n_own, self.j.reshape(g.shape3 + (g.dim,)), g.nx, g.ny, g.nz,
-                            g.hx, g.hy, g.hz, g.nx * g.hx, g.ny * g.hy, g.nz * g.hz, g.walls, g.sides, self.ring,
-                            ps.flux)
+        deposit.interpolate(self.cells, self.weights, ps.n_own, self.j.reshape(g.shape3 + (g.dim,)), ps.flux)
 
     def _rates(self, ps, flux, out):
         """out[k] = K of the owned particles at the slip toward ``flux`` (body_force.drag_rates)."""
@@ -171,8 +182,7 @@ class GasStage:
             # velocity); the last pass's K are the particles' (ps.drag_rate: the passes read them, so that the
             # drag the grains feel sums to the grid's -grad p')
             self._rates(ps, ps.flux if p > 0 or lagged else ps.vel, ps.drag_rate)
-            deposit.deposit(ps.pos, ps.vel, ps.mass, ps.kind, ps.n_own, self.rho_s, g.nx, g.ny, g.nz, g.hx, g.hy,
-                            g.hz, g.nx * g.hx, g.ny * g.hy, g.nz * g.hz, g.walls, g.sides, self.ring,
+            deposit.deposit(self.cells, self.weights, ps.vel, ps.mass, ps.n_own, self.rho_s, g.hx, g.hy, g.hz,
                             self.sums.reshape(g.shape3 + self.sums.shape[-1:]), ps.drag_rate, ps.theta, self.rate_ref)
             self.exchange(self.sums)
             theta, R, V = deposit.cells_of(self.sums, self.rho_s, self.rate_ref)
