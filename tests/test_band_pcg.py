@@ -8,6 +8,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from parsph.gas import band_pcg
+from parsph.gas import finite_volumes as fv
 
 
 def _band(n, w, seed):
@@ -75,26 +76,46 @@ def test_band_solve_makes_the_one_column_sweeps_operations(n, w):
     assert np.array_equal(x, _two_sweeps(T, order, b))
 
 
-def test_preconditioned_cg_converges_to_the_sparse_lu_solve():
-    """The factor of a nearby matrix (each entry off by up to 5%) preconditions A: the iteration reaches
-    max |r| <= rtol max |b|, its x agrees with SuperLU's to that tolerance; with one iteration allowed it does
-    not converge (-1); a NaN in b is no convergence either."""
+@pytest.mark.parametrize("single", [False, True])
+def test_preconditioned_cg_converges_to_the_sparse_lu_solve(single):
+    """The factor of a nearby matrix (each entry off by up to 5%) preconditions A, in double precision or rounded
+    to single with sweeps in single (darcy's kept factor): the iteration reaches max |r| <= rtol max |b|, its x
+    agrees with SuperLU's to that tolerance; with one iteration allowed it does not converge (-1); a NaN in b is
+    no convergence either."""
     n, w = 400, 20
     ab, A = _band(n, w, 3)
     near = ab * (1.0 + 0.05 * np.random.default_rng(4).uniform(-1, 1, ab.shape))
     c = sla.cholesky_banded(near, check_finite=False)
-    T, order = np.ascontiguousarray(c.T), np.arange(n, dtype=np.int64)
+    kind = np.float32 if single else np.float64
+    T, order = np.ascontiguousarray(c.T).astype(kind), np.arange(n, dtype=np.int64)
     b = np.random.default_rng(5).normal(size=n)
     x = np.zeros(n)
-    scratch, work = np.zeros((4, n)), np.zeros(n)
-    its = band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, x, 1e-12, 50, scratch, work)
+    scratch, work = np.zeros((4, n)), np.zeros(n, kind)
+    indptr, indices = A.indptr.astype(np.int64), A.indices.astype(np.int64)
+    its = band_pcg.pcg(indptr, indices, A.data, T, order, b, x, 1e-12, 50, scratch, work)
     assert 1 < its < 50
     ref = spla.splu(A.tocsc()).solve(b)
     assert np.abs(A @ x - b).max() <= 1e-12 * np.abs(b).max()
     np.testing.assert_allclose(x, ref, rtol=0, atol=1e-10 * np.abs(ref).max())
-    assert band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, b, np.zeros(n), 1e-12, 1,
-                        scratch, work) == -1
+    assert band_pcg.pcg(indptr, indices, A.data, T, order, b, np.zeros(n), 1e-12, 1, scratch, work) == -1
     bad = b.copy()
     bad[7] = np.nan
-    assert band_pcg.pcg(A.indptr.astype(np.int64), A.indices.astype(np.int64), A.data, T, order, bad, np.zeros(n), 1e-12, 50,
-                        scratch, work) == -1
+    assert band_pcg.pcg(indptr, indices, A.data, T, order, bad, np.zeros(n), 1e-12, 50, scratch, work) == -1
+
+
+def test_matvec_is_the_sparse_product_and_returns_the_dot_in_four_partial_sums():
+    """fv.matvec: A x against scipy's CSR product (rows of five and of other lengths), and its x . A x bit for bit
+    the dot product of band_pcg's four interleaved partial sums, written out here in plain Python."""
+    rng = np.random.default_rng(6)
+    indptr, indices = fv.pattern(7, 9, 1, True, False)  # rows of 4 at the walls, 5 inside
+    data = rng.normal(size=len(indices))
+    A = sp.csr_matrix((data, indices, indptr), shape=(63, 63))
+    x = rng.normal(size=63)
+    out = np.empty(63)
+    dot = fv.matvec(indptr, indices, data, x, out)
+    np.testing.assert_allclose(out, A @ x, rtol=1e-14, atol=1e-14 * np.abs(A @ x).max())
+    s = [0.0, 0.0, 0.0, 0.0]
+    for k in range(63):
+        s[k % 4 if k < 60 else 0] += x[k] * out[k]
+    assert dot == (s[0] + s[1]) + (s[2] + s[3])
+    assert dot == band_pcg._dot4(x, 0, out, 0, 63)

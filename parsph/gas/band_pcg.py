@@ -93,6 +93,25 @@ def finite(x):
     return s == 0.0
 
 
+@njit(cache=True, inline="always")
+def _largest(r):
+    """max_k |r_k| in four running maxima (no chain through every element), and whether every r_k is finite."""
+    n = len(r)
+    m0 = m1 = m2 = m3 = 0.0
+    ok = True
+    q = n // 4
+    for i in range(q):
+        k = 4 * i
+        a0, a1, a2, a3 = abs(r[k]), abs(r[k + 1]), abs(r[k + 2]), abs(r[k + 3])
+        m0, m1, m2, m3 = max(m0, a0), max(m1, a1), max(m2, a2), max(m3, a3)
+        ok = ok & (a0 < np.inf) & (a1 < np.inf) & (a2 < np.inf) & (a3 < np.inf)
+    for k in range(4 * q, n):
+        a0 = abs(r[k])
+        m0 = max(m0, a0)
+        ok = ok & (a0 < np.inf)
+    return max(max(m0, m1), max(m2, m3)), ok
+
+
 @njit(cache=True)
 def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
     """A x = b (A in CSR form) by conjugate gradients preconditioned with the factor (``T``, ``order``:
@@ -102,23 +121,16 @@ def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
     not finite."""
     n = len(b)
     r, z, d, Ap = scratch[0], scratch[1], scratch[2], scratch[3]
-    scale = 0.0
-    for k in range(n):
-        scale = max(scale, abs(b[k]))
+    scale, _ = _largest(b)
     if scale == 0.0:
         x[:] = 0.0
         return 0
     matvec(indptr, indices, data, x, r)
     for k in range(n):
         r[k] = b[k] - r[k]
+    big, finite = _largest(r)
     rz_old = 0.0
     for it in range(max_iter + 1):
-        big = 0.0
-        finite = True
-        for k in range(n):
-            a = abs(r[k])
-            big = max(big, a)
-            finite = finite and a < np.inf
         if not finite:
             return -1
         if big <= rtol * scale:
@@ -133,10 +145,10 @@ def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
             beta = rz / rz_old
             for k in range(n):
                 d[k] = z[k] + beta * d[k]
-        matvec(indptr, indices, data, d, Ap)
-        alpha = rz / _dot4(d, 0, Ap, 0, n)
+        alpha = rz / matvec(indptr, indices, data, d, Ap)  # and d . Ap
         for k in range(n):
             x[k] += alpha * d[k]
             r[k] -= alpha * Ap[k]
+        big, finite = _largest(r)
         rz_old = rz
     return -1

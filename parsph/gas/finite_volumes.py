@@ -296,9 +296,27 @@ def assemble(K, kx, ky, kz, vx, vy, vz, hx, hy, hz, kinds, vals_lo_x, vals_hi_x,
 
 @njit(cache=True)
 def matvec(indptr, indices, data, x, out):
-    """out = A x for A in CSR form."""
-    for r in range(len(indptr) - 1):
+    """out = A x for A in CSR form, each row's terms summed in its order; returns x . out, in four interleaved
+    partial sums (element k in sum k mod 4, the last n mod 4 in the first, then (s0 + s1) + (s2 + s3):
+    :func:`parsph.gas.band_pcg._dot4`'s order and bits), for conjugate gradients' d . A d in the same pass. A row
+    of five (a 2-D grid's inner cell) is written out: a loop of unknown length took 1.3x as long, and a helper
+    per row 10x (numba counts the arrays' references at each call)."""
+    n = len(indptr) - 1
+    s = np.zeros(4)
+    last = 4 * (n // 4)
+    for r in range(n):
+        a = indptr[r]
+        m = indptr[r + 1] - a
         acc = 0.0
-        for q in range(indptr[r], indptr[r + 1]):
-            acc += data[q] * x[indices[q]]
+        if m == 5:
+            acc += data[a] * x[indices[a]]
+            acc += data[a + 1] * x[indices[a + 1]]
+            acc += data[a + 2] * x[indices[a + 2]]
+            acc += data[a + 3] * x[indices[a + 3]]
+            acc += data[a + 4] * x[indices[a + 4]]
+        else:
+            for q in range(a, a + m):
+                acc += data[q] * x[indices[q]]
         out[r] = acc
+        s[r & 3 if r < last else 0] += x[r] * acc
+    return (s[0] + s[1]) + (s[2] + s[3])
