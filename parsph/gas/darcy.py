@@ -10,8 +10,11 @@ core: 80 x 160 cells, half-width 160, 20.6 ms the band and 19.6 ms SuperLU; 160 
 
 A factorisation costs about 20 times its use (2 ms against 0.11 on 38 x 112 cells), and K changes little
 from one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
-preconditioned with it, started from the last solve's p' (:data:`RTOL`: until every cell's flux imbalance
-is below 1e-10 of the largest given one; a whole band's iteration compiled, :mod:`parsph.gas.band_pcg`); a
+preconditioned with it, started from p' extrapolated from the last two solves, 2 p_1 - p_2 (on the 2-D bed of
+docs/performance.md a third of the factorisations that the last p' alone needs), until every cell's flux
+imbalance is below :data:`RTOL` of the largest given one (a whole band's iteration compiled,
+:mod:`parsph.gas.band_pcg`, with the kept factor in single precision: its sweeps read half the bytes and the
+iterations are as many as with the double; the solve right after a factorisation is the double's own); a
 solve that needs more than :data:`REFRESH_ITER` iterations makes the next one factorise afresh, and one that
 has not converged in :data:`MAX_ITER` factorises at once. What a solve starts from (the factor's K and the
 warm start) is :meth:`Darcy.start`, which a restart point keeps so that a restarted run makes the same solves.
@@ -191,7 +194,7 @@ class Darcy:
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
         self.factor_K = None
-        self.warm = None       # the last solve's p' (and the unit gradient's, with a mean flux)
+        self.warm = None       # the last solve's p' (and the unit gradient's, with a mean flux), then the solve's before
         self.iterations = 0    # the last solve's (0: it factorised)
         self.factorisations = 0
 
@@ -204,7 +207,7 @@ class Darcy:
 
     def start(self):
         """What the next solve starts from: the K whose factor preconditions it (None: it factorises) and the
-        warm start, a tuple of flat arrays (None); what a restart point keeps."""
+        last two solves' p' (:meth:`_warm_start`), a tuple of flat arrays (None); what a restart point keeps."""
         return (self.factor_K if self._factor is not None else None), self.warm
 
     def restore(self, factor_K, warm):
@@ -291,6 +294,12 @@ class Darcy:
             rz_old = rz
         return None, MAX_ITER
 
+    def _warm_start(self, m):
+        """Each of the m right-hand sides' start: 2 p_1 - p_2 from the last two solves (``warm``: the last's m, then
+        the one's before), the last's where there is one only."""
+        last, before = self.warm[:m], self.warm[m:]
+        return last if not before else tuple(2.0 * a - b for a, b in zip(last, before))
+
     def _worth_trying(self, K):
         """Whether the kept factor is worth a try: always for a whole band; for a split band (its factorisation
         shared by the ranks, so the tries weigh more against it) where no cell's K moved by more than
@@ -318,7 +327,7 @@ class Darcy:
         with np.errstate(all="ignore"):
             ps = None
             if self.reuse and self._factor is not None and self.warm is not None and self._worth_trying(K):
-                tried = [self._pcg(b, w) for b, w in zip(rhs, self.warm)]
+                tried = [self._pcg(b, w) for b, w in zip(rhs, self._warm_start(len(rhs)))]
                 self.iterations = max(it for _, it in tried)
                 if all(x is not None for x, _ in tried):
                     ps = [x for x, _ in tried]
@@ -335,7 +344,7 @@ class Darcy:
         if not all(band_pcg.finite(x) for x in ps):
             self._factor = None
             raise SolveFailed("the pressure is not finite")
-        self.warm = tuple(ps)
+        self.warm = tuple(ps) + (self.warm[:len(ps)] if self.warm is not None else ())
         flat = self._grid_shape
         p = ps[0]
         js = [flat(j) for j in fv.faces(K3, self.kf, self.vf, h, self.kinds, self.values, p.reshape(shape3), 0.0)]
