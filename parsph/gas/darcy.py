@@ -8,7 +8,7 @@ core: 80 x 160 cells, half-width 160, 20.6 ms the band and 19.6 ms SuperLU; 160 
 142 ms). A band of :data:`SPLIT_MIN` or wider factorises as two blocks and a separator, one block a rank
 (:mod:`parsph.gas.split_band`).
 
-A factorisation costs about 20 times its use (2 ms against 0.11 on 38 x 112 cells), and K changes little
+A factorisation costs 20-30 times a use of its factor (2-3 ms against 0.1 on 38 x 112 cells), and K changes little
 from one step to the next, so :class:`Darcy` keeps the factor of an earlier K and solves by conjugate gradients
 preconditioned with it, started from p' extrapolated from the last two solves, 2 p_1 - p_2 (on the 2-D bed of
 docs/performance.md a third of the factorisations that the last p' alone needs), until every cell's flux
@@ -194,7 +194,7 @@ class Darcy:
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
         self.factor_K = None
-        self.warm = None       # the last solve's p' (and the unit gradient's, with a mean flux), then the solve's before
+        self.warm = None       # the last solve's p' (and the unit gradient's, with a mean flux), then the one's before
         self.iterations = 0    # the last solve's (0: it factorised)
         self.factorisations = 0
 

@@ -234,9 +234,9 @@ def assemble(K, kx, ky, kz, vx, vy, vz, hx, hy, hz, kinds, vals_lo_x, vals_hi_x,
     """The matrix's values (on its fixed pattern, whose places :func:`places` gives as ``diag``, ``across``)
     and the right-hand side: per cell, the sum over its faces of g (p_c - p_nb) = -(the faces' outward V_f +
     given fluxes) times their areas, g = area K_f / distance; ``drive`` as in :func:`axis_faces`. K (nx, ny, nz),
-    the faces' K_f and V_f per axis (:func:`face_values`); z periodic, with faces across it in 3-D (nz > 1) only; a side's values are per face,
-    (j, k) flattened on an x side, (i, k) on a y side. A cell's sides in the order -x, +x, -y, +y(, -z, +z):
-    its diagonal and right-hand side sum them in that order."""
+    the faces' K_f and V_f per axis (:func:`face_values`); z periodic, with faces across it in 3-D (nz > 1) only;
+    a side's values are per face, (j, k) flattened on an x side, (i, k) on a y side. A cell's sides in the order
+    -x, +x, -y, +y(, -z, +z): its diagonal and right-hand side sum them in that order."""
     nx, ny, nz = K.shape
     nsides = 6 if nz > 1 else 4
     data[:] = 0.0
