@@ -14,7 +14,9 @@ one pass each, as fast as scipy's ``cho_solve_banded`` (LAPACK's dpbtrs: 0.11 ag
 order (15% off a use of that factor: it reads and writes the rows above half as often); the iteration's
 vector arithmetic in the same compiled loop is what was numpy's, which cost a 2-D bed's gas stage a third of
 its time (docs/performance.md, "The solved gas"). The dot products keep four partial sums in a fixed order:
-the same bits on every machine and rank.
+the same bits on every machine and rank. The sweeps run in T's precision: :class:`parsph.gas.darcy.Darcy` keeps
+the factor it preconditions with in single precision (1.3 MB instead of 2.6 on those cells, in a core's L2: a use
+109 against 187 us), and solves directly with the double one.
 """
 import numpy as np
 from numba import njit, uintp
