@@ -88,16 +88,7 @@ def band_solve(T, order, b, x, work):
 
 
 @njit(cache=True)
-def finite(x):
-    """Whether every x is finite (one pass: a NaN or an infinity makes the sum of x * 0 a NaN)."""
-    s = 0.0
-    for k in range(len(x)):
-        s += x[k] * 0.0
-    return s == 0.0
-
-
-@njit(cache=True, inline="always")
-def _largest(r):
+def largest(r):
     """max_k |r_k| in four running maxima (no chain through every element), and whether every r_k is finite."""
     n = len(r)
     m0 = m1 = m2 = m3 = 0.0
@@ -124,14 +115,14 @@ def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
     not finite."""
     n = len(b)
     r, z, d, Ap = scratch[0], scratch[1], scratch[2], scratch[3]
-    scale, _ = _largest(b)
+    scale, _ = largest(b)
     if scale == 0.0:
         x[:] = 0.0
         return 0
     matvec(indptr, indices, data, x, r)
     for k in range(n):
         r[k] = b[k] - r[k]
-    big, finite = _largest(r)
+    big, finite = largest(r)
     rz_old = 0.0
     for it in range(max_iter + 1):
         if not finite:
@@ -152,6 +143,6 @@ def pcg(indptr, indices, data, T, order, b, x, rtol, max_iter, scratch, work):
         for k in range(n):
             x[k] += alpha * d[k]
             r[k] -= alpha * Ap[k]
-        big, finite = _largest(r)
+        big, finite = largest(r)
         rz_old = rz
     return -1

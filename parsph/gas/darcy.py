@@ -158,7 +158,7 @@ class Darcy:
         self.periodic = (x_sides is None, y_sides is None)
         self.kf = fv.face_arrays(nx, ny, nz)  # the faces' K_f and V_f (finite_volumes.face_values)
         self.vf = fv.face_arrays(nx, ny, nz)
-        self.unit_vf = fv.face_arrays(nx, ny, nz)  # V = 0: the unit gradient's (zeros)
+        self.unit_vf = fv.face_arrays(nx, ny, nz) if mean_flux is not None else None  # V = 0: the unit gradient's
         # the band where x has sides (upper form: ab[w + r - c, c] = A[r, c] for c >= r, in the band's order)
         if nz > 1:  # x slowest: half-width ny nz
             self.order, w = np.arange(n), ny * nz
@@ -189,7 +189,8 @@ class Darcy:
         self.unit_data = np.zeros_like(self.data)
         self.ab = np.zeros((w + 1, n)) if self.banded and not self.split else None
         self._scratch = np.zeros((4, n)) if self.ab is not None else None  # band_pcg.pcg's vectors
-        self._work = {np.dtype(t): np.zeros(n, t) for t in (np.float64, np.float32)}  # the sweeps', per precision
+        self._work = ({np.dtype(t): np.zeros(n, t) for t in (np.float64, np.float32)}  # the sweeps', per precision
+                      if self.ab is not None else None)
         self._band = None      # a whole band's factor (its transpose, the band's order), for band_pcg
         self.reuse = reuse
         self._factor = None    # solves with the factor of factor_K's matrix (None: the next solve factorises)
@@ -341,7 +342,7 @@ class Darcy:
                 self.iterations = 0
             if not self.reuse or self.iterations > REFRESH_ITER:
                 self._factor = None
-        if not all(band_pcg.finite(x) for x in ps):
+        if not all(band_pcg.largest(x)[1] for x in ps):  # every p' finite
             self._factor = None
             raise SolveFailed("the pressure is not finite")
         self.warm = tuple(ps) + (self.warm[:len(ps)] if self.warm is not None else ())

@@ -66,6 +66,17 @@ def face_arrays(nx, ny, nz):
     return tuple(np.zeros(s) for s in ((nx + 1, ny, nz), (nx, ny + 1, nz), (nx, ny, nz + 1)))
 
 
+@njit(cache=True, inline="always")
+def _joined(f, n, periodic):
+    """The two cells that face f across an axis of n cells joins (below, above): f - 1 and f inside, n - 1 and 0
+    at either end of a periodic axis, (-1, -1) at a bounded axis's ends."""
+    if 0 < f < n:
+        return f - 1, f
+    if periodic:
+        return n - 1, 0
+    return -1, -1
+
+
 @njit(cache=True)
 def face_values(K, V, periodic_x, periodic_y, kx, ky, kz, vx, vy, vz):
     """K_f (:func:`_harm`) and V_f (:func:`_face_v`) of every face between two cells, once for the matrix
@@ -74,11 +85,8 @@ def face_values(K, V, periodic_x, periodic_y, kx, ky, kz, vx, vy, vz):
     V (nx, ny, nz, dim); faces across z where nz > 1 (z periodic)."""
     nx, ny, nz = K.shape
     for a in range(nx + 1):
-        if 0 < a < nx:
-            lo, hi = a - 1, a
-        elif periodic_x:
-            lo, hi = nx - 1, 0
-        else:
+        lo, hi = _joined(a, nx, periodic_x)
+        if lo < 0:
             continue
         for b in range(ny):
             for c in range(nz):
@@ -87,11 +95,8 @@ def face_values(K, V, periodic_x, periodic_y, kx, ky, kz, vx, vy, vz):
                 vx[a, b, c] = _face_v(Ka, Kb, V[lo, b, c, 0], V[hi, b, c, 0])
     for a in range(nx):
         for b in range(ny + 1):
-            if 0 < b < ny:
-                lo, hi = b - 1, b
-            elif periodic_y:
-                lo, hi = ny - 1, 0
-            else:
+            lo, hi = _joined(b, ny, periodic_y)
+            if lo < 0:
                 continue
             for c in range(nz):
                 Ka, Kb = K[a, lo, c], K[a, hi, c]
@@ -101,7 +106,7 @@ def face_values(K, V, periodic_x, periodic_y, kx, ky, kz, vx, vy, vz):
         for a in range(nx):
             for b in range(ny):
                 for c in range(nz + 1):
-                    lo, hi = (c - 1, c) if 0 < c < nz else (nz - 1, 0)
+                    lo, hi = _joined(c, nz, True)
                     Ka, Kb = K[a, b, lo], K[a, b, hi]
                     kz[a, b, c] = _harm(Ka, Kb)
                     vz[a, b, c] = _face_v(Ka, Kb, V[a, b, lo, 2], V[a, b, hi, 2])
